@@ -1,0 +1,48 @@
+//! Generators and analysis for spatiotemporal blue-noise (STBN) masks.
+//!
+//! Data flow: a [`MaskSpec`] (what to generate) → [`generate`] (void-and-cluster with an
+//! [`EnergyTopology`]-shaped [`EnergyKernel`]) → a [`Volume`] of per-slice ranks. Encoding,
+//! compression and embedding live in `stbn-build-support`; sampling in `stbn-runtime`.
+//!
+//! ```
+//! use stbn_gen::{generate, MaskSpec};
+//! let volume = generate(&MaskSpec::new(16, 16, 4, 7)).unwrap();
+//! // Every slice is a permutation: exactly uniform values.
+//! let mut slice = volume.slice(0).to_vec();
+//! slice.sort_unstable();
+//! assert!(slice.iter().enumerate().all(|(i, &r)| r as usize == i));
+//! ```
+
+pub mod analysis;
+mod extremum;
+pub mod kernel;
+pub mod spec;
+pub mod void_cluster;
+pub mod volume;
+
+pub use kernel::EnergyKernel;
+pub use spec::{EnergyTopology, MaskSpec, SpecError};
+pub use void_cluster::Progress;
+pub use volume::Volume;
+
+/// Generates the scalar mask `spec` describes.
+///
+/// Deterministic: equal specs give equal volumes on every machine and for every thread count.
+pub fn generate(spec: &MaskSpec) -> Result<Volume, SpecError> {
+    generate_with_progress(spec, &mut |_| {})
+}
+
+/// [`generate`], calling `progress` as pixels get ranked.
+pub fn generate_with_progress(
+    spec: &MaskSpec,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<Volume, SpecError> {
+    spec.validate()?;
+    let ranks = void_cluster::rank_pixels(spec, progress);
+    Ok(Volume::from_global_ranks(
+        spec.width,
+        spec.height,
+        spec.depth,
+        &ranks,
+    ))
+}
