@@ -1,0 +1,95 @@
+//! `no_std` sampler for embedded spatiotemporal blue-noise (STBN) masks.
+//!
+//! A mask is a `width × height × depth` torus of 1–4 channel values stored in a
+//! `.stbn` blob: a 64-byte [`MaskHeader`] followed by the payload, optionally
+//! LZ4- or Deflate-compressed. Blobs are meant to be embedded with
+//! `include_bytes!` and sampled with no allocation:
+//!
+//! * [`Stbn`] is the sampling view over decoded data. For an uncompressed blob it
+//!   is zero-copy and can be built in a `static` with the `const fn`
+//!   [`Stbn::from_bytes_unverified`].
+//! * [`PackedStbn`] validates a blob of any compression and decodes it into a
+//!   caller-provided buffer ([`PackedStbn::decode_into`]) or, with the `alloc`
+//!   feature, into an `OwnedStbn`.
+//!
+//! Sampling is toroidal on every axis and accepts every `i32`/`u32` coordinate.
+//! Values are the stored unit values in `[0, 1)` (Unorm8/Unorm16 decode to bin
+//! midpoints `(q + 0.5) / 2^bits`).
+//!
+//! # Features
+//! * `alloc` (off by default): `PackedStbn::decode` and `OwnedStbn`.
+//!
+//! # Example
+//! ```
+//! use stbn_runtime::{Compression, Encoding, MaskHeader, SampleOffset, Stbn, ValueMap};
+//!
+//! // Real code embeds a file written by the generator, e.g.
+//! //     static BYTES: &[u8] = include_bytes!("../assets/scalar_64.stbn");
+//! // Here the same kind of blob, a 4×2×2 one-channel Unorm8 mask, is built in const.
+//! const HEADER: MaskHeader = MaskHeader {
+//!     width: 4,
+//!     height: 2,
+//!     depth: 2,
+//!     channels: 1,
+//!     encoding: Encoding::Unorm8,
+//!     compression: Compression::None,
+//!     value_map: ValueMap::Unit,
+//!     payload_len: 16,
+//!     payload_crc32: 0xF15F_BCF8,
+//!     pdf_min: 0.0,
+//!     pdf_max: 0.0,
+//! };
+//! const fn blob() -> [u8; 80] {
+//!     let header = HEADER.to_bytes();
+//!     let mut out = [0u8; 80];
+//!     let mut i = 0;
+//!     while i < out.len() {
+//!         out[i] = if i < 64 { header[i] } else { ((i - 64) * 37 % 256) as u8 };
+//!         i += 1;
+//!     }
+//!     out
+//! }
+//! static BYTES: [u8; 80] = blob();
+//!
+//! // Header and length are validated at compile time: a bad blob fails the build.
+//! static MASK: Stbn<'static> = match Stbn::from_bytes_unverified(&BYTES) {
+//!     Ok(mask) => mask,
+//!     Err(_) => panic!("embedded mask is invalid"),
+//! };
+//!
+//! // Check the payload CRC once, e.g. in a unit test or at start-up.
+//! assert!(Stbn::from_bytes(&BYTES).is_ok());
+//!
+//! // Point sampling wraps on all axes.
+//! let v = MASK.sample(5, -1, 3);
+//! assert_eq!(v, MASK.sample(1, 1, 1));
+//! assert!((0.0..1.0).contains(&v));
+//!
+//! // A decorrelated value for sample dimension 1, and a start-frame offset.
+//! let _second_dimension = MASK.sample_dim(5, -1, 3, 1);
+//! let shifted = MASK.sample_with(5, -1, 3, SampleOffset { x: 0, y: 0, frame: 1 });
+//! assert_eq!(shifted, MASK.sample(1, 1, 0));
+//!
+//! // A whole frame at once, row-major.
+//! let mut frame = [0.0f32; 8];
+//! assert_eq!(MASK.fill_frame(0, &mut frame), 8);
+//! assert_eq!(frame[4 + 1], MASK.sample(1, 1, 0));
+//! ```
+#![no_std]
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+#[cfg(feature = "alloc")]
+extern crate alloc;
+
+mod error;
+mod header;
+mod packed;
+mod sampler;
+
+pub use error::Error;
+pub use header::{Compression, Encoding, MAX_DECODED_BYTES, MaskHeader, ValueMap};
+#[cfg(feature = "alloc")]
+pub use packed::OwnedStbn;
+pub use packed::PackedStbn;
+pub use sampler::{SampleOffset, Stbn};

@@ -1,0 +1,228 @@
+//! [`PackedStbn`]: a validated blob of any compression, and its decoders.
+
+use core::fmt;
+
+use miniz_oxide::inflate::TINFLStatus;
+use miniz_oxide::inflate::core::{DecompressorOxide, decompress, inflate_flags};
+
+use crate::{Compression, Error, MaskHeader, Stbn};
+
+/// A validated `.stbn` blob whose payload may be compressed.
+///
+/// Construction checks the header, that the blob is exactly `64 + payload_len`
+/// bytes, and the payload CRC; decoding then only has to check the compressed
+/// stream itself.
+#[derive(Clone, Copy)]
+pub struct PackedStbn<'a> {
+    header: MaskHeader,
+    payload: &'a [u8],
+}
+
+impl fmt::Debug for PackedStbn<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("PackedStbn")
+            .field("header", &self.header)
+            .field("payload_len", &self.payload.len())
+            .finish()
+    }
+}
+
+/// The payload of `bytes` after a parsed `header`: exactly `payload_len` bytes
+/// must follow the 64-byte header.
+pub(crate) const fn payload_of<'a>(
+    bytes: &'a [u8],
+    header: &MaskHeader,
+) -> Result<&'a [u8], Error> {
+    let payload_len = header.payload_len as u64;
+    // `bytes.len() >= 64` (the header parsed), so this subtraction cannot underflow.
+    let available = (bytes.len() - MaskHeader::SIZE) as u64;
+    if available < payload_len {
+        return Err(Error::Truncated {
+            // Saturates only on targets whose usize cannot address the blob anyway.
+            needed: MaskHeader::SIZE.saturating_add(if payload_len > usize::MAX as u64 {
+                usize::MAX
+            } else {
+                payload_len as usize
+            }),
+            available: bytes.len(),
+        });
+    }
+    if available > payload_len {
+        return Err(Error::PayloadLength);
+    }
+    Ok(bytes.split_at(MaskHeader::SIZE).1)
+}
+
+impl<'a> PackedStbn<'a> {
+    /// Validates a complete blob: header ([`MaskHeader::parse`]), total length
+    /// exactly `64 + payload_len`, and `payload_crc32`.
+    ///
+    /// The compressed stream itself is checked when decoding.
+    ///
+    /// # Errors
+    /// Any header error; [`Error::Truncated`] if the blob is shorter than
+    /// `64 + payload_len`; [`Error::PayloadLength`] if it is longer;
+    /// [`Error::PayloadChecksum`] if the CRC does not match.
+    pub fn from_bytes(bytes: &'a [u8]) -> Result<Self, Error> {
+        let header = MaskHeader::parse(bytes)?;
+        let payload = payload_of(bytes, &header)?;
+        if crc32fast::hash(payload) != header.payload_crc32 {
+            return Err(Error::PayloadChecksum);
+        }
+        Ok(Self { header, payload })
+    }
+
+    /// The blob's header (describing the stored, possibly compressed, payload).
+    pub const fn header(&self) -> &MaskHeader {
+        &self.header
+    }
+
+    /// The stored payload: `payload_len` bytes, compressed per `header().compression`.
+    pub const fn payload(&self) -> &'a [u8] {
+        self.payload
+    }
+
+    /// Bytes the payload decodes to (the buffer size [`decode_into`](Self::decode_into) needs).
+    pub const fn decoded_len(&self) -> usize {
+        self.header.decoded_len()
+    }
+
+    /// Decodes the payload into the first [`decoded_len`](Self::decoded_len)
+    /// bytes of `buf` without allocating, and returns a view of them. Extra bytes
+    /// of `buf` are left untouched.
+    ///
+    /// [`Compression::None`] copies; LZ4 and Deflate decompress and require the
+    /// stream to produce exactly `decoded_len` bytes. Deflate decoding keeps its
+    /// decompressor state (about 11 KiB) on the stack. The returned view's
+    /// header describes the decoded data (see [`Stbn::header`]); for compressed
+    /// blobs that costs one CRC pass over the output.
+    ///
+    /// # Errors
+    /// [`Error::BufferTooSmall`] if `buf` is shorter than `decoded_len`;
+    /// [`Error::Decompress`] if the stream is malformed or has trailing bytes;
+    /// [`Error::DecodedLength`] if it decodes to the wrong size.
+    pub fn decode_into<'b>(&self, buf: &'b mut [u8]) -> Result<Stbn<'b>, Error> {
+        let len = self.decoded_len();
+        let available = buf.len();
+        let Some(out) = buf.get_mut(..len) else {
+            return Err(Error::BufferTooSmall {
+                needed: len,
+                available,
+            });
+        };
+        let mut header = self.header;
+        match self.header.compression {
+            Compression::None => out.copy_from_slice(self.payload),
+            Compression::Lz4 => lz4_into(self.payload, out)?,
+            Compression::Deflate => inflate_into(self.payload, out)?,
+        }
+        let data: &'b [u8] = out;
+        if !header.compression.is_none() {
+            header.compression = Compression::None;
+            // `len <= MAX_DECODED_BYTES = 2^31`, so it fits in u32.
+            header.payload_len = len as u32;
+            header.payload_crc32 = crc32fast::hash(data);
+        }
+        Ok(Stbn::from_parts(header, data))
+    }
+
+    /// Views the payload in place, without copying.
+    ///
+    /// # Errors
+    /// [`Error::Compressed`] if the payload is compressed (use
+    /// [`decode_into`](Self::decode_into) instead).
+    pub const fn view(&self) -> Result<Stbn<'a>, Error> {
+        if self.header.compression.is_none() {
+            Ok(Stbn::from_parts(self.header, self.payload))
+        } else {
+            Err(Error::Compressed)
+        }
+    }
+
+    /// Decodes the payload into a freshly allocated buffer.
+    ///
+    /// # Errors
+    /// As [`decode_into`](Self::decode_into), minus [`Error::BufferTooSmall`].
+    #[cfg(feature = "alloc")]
+    pub fn decode(&self) -> Result<OwnedStbn, Error> {
+        let mut data = alloc::vec![0u8; self.decoded_len()];
+        let header = *self.decode_into(&mut data)?.header();
+        Ok(OwnedStbn { header, data })
+    }
+}
+
+/// Decompresses an LZ4 block into exactly `out.len()` bytes.
+fn lz4_into(payload: &[u8], out: &mut [u8]) -> Result<(), Error> {
+    let expected = out.len();
+    match lz4_flex::block::decompress_into(payload, out) {
+        Ok(written) if written == expected => Ok(()),
+        Ok(written) => Err(Error::DecodedLength {
+            expected,
+            actual: Some(written),
+        }),
+        Err(lz4_flex::block::DecompressError::OutputTooSmall { .. }) => Err(Error::DecodedLength {
+            expected,
+            actual: None,
+        }),
+        Err(_) => Err(Error::Decompress),
+    }
+}
+
+/// Inflates a raw deflate stream into exactly `out.len()` bytes; the stream
+/// must end exactly at the end of `payload`.
+fn inflate_into(payload: &[u8], out: &mut [u8]) -> Result<(), Error> {
+    let expected = out.len();
+    let mut state = DecompressorOxide::new();
+    // No zlib header, all input present, `out` is the whole (non-wrapping) output.
+    let flags = inflate_flags::TINFL_FLAG_USING_NON_WRAPPING_OUTPUT_BUF;
+    let (status, read, written) = decompress(&mut state, payload, out, 0, flags);
+    match status {
+        TINFLStatus::Done if read != payload.len() => Err(Error::Decompress),
+        TINFLStatus::Done if written == expected => Ok(()),
+        TINFLStatus::Done => Err(Error::DecodedLength {
+            expected,
+            actual: Some(written),
+        }),
+        TINFLStatus::HasMoreOutput => Err(Error::DecodedLength {
+            expected,
+            actual: None,
+        }),
+        _ => Err(Error::Decompress),
+    }
+}
+
+/// A decoded mask that owns its data (feature `alloc`).
+#[cfg(feature = "alloc")]
+#[derive(Clone)]
+pub struct OwnedStbn {
+    header: MaskHeader,
+    data: alloc::vec::Vec<u8>,
+}
+
+#[cfg(feature = "alloc")]
+impl fmt::Debug for OwnedStbn {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("OwnedStbn")
+            .field("header", &self.header)
+            .field("data_len", &self.data.len())
+            .finish()
+    }
+}
+
+#[cfg(feature = "alloc")]
+impl OwnedStbn {
+    /// Header describing the decoded data as an uncompressed blob (as [`Stbn::header`]).
+    pub const fn header(&self) -> &MaskHeader {
+        &self.header
+    }
+
+    /// The decoded payload, `header().decoded_len()` bytes.
+    pub fn data(&self) -> &[u8] {
+        &self.data
+    }
+
+    /// A sampling view borrowing this mask's data.
+    pub fn view(&self) -> Stbn<'_> {
+        Stbn::from_parts(self.header, &self.data)
+    }
+}
