@@ -4,34 +4,42 @@
 //! Void-and-cluster asks for the largest void (min energy among off pixels) or the tightest
 //! cluster (max energy among on pixels) once per step, while every step changes the energy of the
 //! ~100–200 pixels in a kernel footprint. Scanning the volume per step is O(N²) overall; a
-//! binary heap or segment tree pays O(log N) for every touched pixel. This tree instead keeps, per
-//! node, its best key and that key's pixel, and on a key change does O(1) work in the common case:
+//! binary heap or segment tree pays O(log N) for every touched pixel. This tree pays O(1) per
+//! touched pixel and rescans only what can matter.
 //!
-//! * the changed pixel beats the node's best: it becomes the best, and the change moves up;
-//! * the changed pixel *was* the best and got worse (or left the set): the node is marked dirty,
-//!   and so are its ancestors;
-//! * otherwise nothing changes.
+//! Every node holds a *bound*: a key at least as good as the best member key in its subtree (a
+//! lower bound in a min tree, an upper bound in a max tree), and the pixel it came from. A leaf is
+//! *exact* when its bound is its best member's key. Changes:
 //!
-//! Dirty nodes are recomputed from their children when the extremum is next asked for.
+//! * a member's key improves (or a pixel joins): if it beats the leaf's bound it becomes the
+//!   leaf's exact best and moves up while it beats the ancestors' bounds;
+//! * a member's key worsens (or it leaves): if it was its leaf's exact best, the leaf becomes
+//!   inexact. Its bound, the old key, is still a valid bound, so nothing above changes.
+//!
+//! A query follows the best bound down to its leaf. If that leaf is exact, its best is the answer
+//! (every other subtree's bound, and so its best key, is no better). If not, the leaf is rescanned,
+//! the bounds on its path are recomputed, and the query repeats. After a splat, the leaves it
+//! made inexact are rescanned only if their old best could still win: usually one or two per step.
 //!
 //! A pixel's key is `state << 63 | energy << 32 | priority`, assembled from two `u32` arrays
 //! ([`Keys`]): the energy word carries the on bit in bit 31 ([`ON_BIT`]), so the splat loop touches
 //! 4 bytes per pixel, and the priority array is read only by leaf scans. A min tree looks for off
-//! pixels and a max tree for on pixels, so a leaf scan is a plain min or max over keys, and a
-//! result on the wrong side of bit 63 means "no member here".
+//! pixels and a max tree for on pixels, so a leaf scan is a plain min or max, and a result on the
+//! wrong side of bit 63 means "no member here".
 //!
-//! Invariants: a clean node's `best` is the true extremum of its subtree; every ancestor of a
-//! dirty node is dirty; a clean node's `pixel` is a member. Keys are unique (the low 32 bits hold a
-//! per-pixel priority), so "best" is always a single pixel and results never depend on scan order.
+//! Invariants: every inner bound equals the best of its children's bounds, and its `pixel` lies in
+//! the leaf that bound came from; an exact leaf's `pixel` is a member. Keys are unique (the low 32
+//! bits hold a per-pixel priority), so "best" is always a single pixel and results never depend on
+//! scan order.
 
 /// Pixels per leaf node (a run of consecutive indices).
-const LEAF_SHIFT: u32 = 4;
+const LEAF_SHIFT: u32 = 6;
 /// Children per inner node.
 const FANOUT_SHIFT: u32 = 3;
-/// `pixel` of a dirty node. Never a pixel index: volumes have at most `2^26` pixels.
-const DIRTY: u32 = u32::MAX;
-/// `pixel` of a clean node without members.
-const NO_PIXEL: u32 = u32::MAX - 1;
+/// `pixel` of a node without members.
+const NO_PIXEL: u32 = u32::MAX;
+/// Set in a leaf's `pixel` while its bound is not exact (pixel indices are below `2^26`).
+const INEXACT: u32 = 1 << 31;
 
 /// Bit of an energy word that marks an on pixel (bit 63 of the key).
 pub(crate) const ON_BIT: u32 = 1 << 31;
@@ -47,7 +55,7 @@ pub(crate) struct Keys<'a> {
 
 impl Keys<'_> {
     /// The key of pixel `i`.
-    #[inline(always)]
+    #[cfg(test)]
     pub(crate) fn key(&self, i: usize) -> u64 {
         key(self.energy[i], self.priority[i])
     }
@@ -68,12 +76,13 @@ pub(crate) enum Extremum {
     Max,
 }
 
-/// One level of nodes, struct-of-arrays: the worsen check touches only `pixel`.
+/// One level of nodes, struct-of-arrays.
 #[derive(Clone, Debug)]
 struct Level {
-    /// Best key of each node's subtree (meaningless while dirty).
-    best: Vec<u64>,
-    /// That key's pixel, [`DIRTY`] or [`NO_PIXEL`].
+    /// Bound of each node's subtree (see the module documentation).
+    bound: Vec<u64>,
+    /// The pixel the bound came from, or [`NO_PIXEL`]; in leaves, `|`[`INEXACT`] while the bound
+    /// is not exact.
     pixel: Vec<u32>,
 }
 
@@ -85,14 +94,15 @@ pub(crate) struct ExtremumTree {
     /// members of a max tree have it set and a priority `>= 1` in the low bits).
     sentinel: u64,
     pixels: usize,
-    /// `levels[0]` covers pixels, `levels[k]` covers nodes of `levels[k - 1]`; the last level has
+    /// `levels[0]` are the leaves, `levels[k]` covers nodes of `levels[k - 1]`; the last level has
     /// exactly one node, the root.
     levels: Vec<Level>,
 }
 
 impl ExtremumTree {
-    /// A tree over `pixels` pixels; everything starts dirty, so the first query scans once.
-    pub(crate) fn new(pixels: usize, extremum: Extremum) -> ExtremumTree {
+    /// A tree over every pixel of `keys`, built exactly.
+    pub(crate) fn new(extremum: Extremum, keys: Keys<'_>) -> ExtremumTree {
+        let pixels = keys.energy.len();
         let sentinel = match extremum {
             Extremum::Min => u64::MAX,
             Extremum::Max => 0,
@@ -101,32 +111,36 @@ impl ExtremumTree {
         let mut count = pixels.div_ceil(1 << LEAF_SHIFT).max(1);
         loop {
             levels.push(Level {
-                best: vec![sentinel; count],
-                pixel: vec![DIRTY; count],
+                bound: vec![sentinel; count],
+                pixel: vec![NO_PIXEL; count],
             });
             if count == 1 {
                 break;
             }
             count = count.div_ceil(1 << FANOUT_SHIFT);
         }
-        ExtremumTree {
+        let leaves = levels[0].bound.len();
+        let mut tree = ExtremumTree {
             extremum,
             sentinel,
             pixels,
             levels,
+        };
+        for leaf in 0..leaves {
+            tree.rescan_leaf(leaf, keys);
         }
+        for level in 1..tree.levels.len() {
+            for node in 0..tree.levels[level].bound.len() {
+                tree.recompute(level, node);
+            }
+        }
+        tree
     }
 
     /// Which extremum the tree finds.
     #[inline(always)]
     pub(crate) fn extremum(&self) -> Extremum {
         self.extremum
-    }
-
-    /// Whether a pixel with `key` is a member (min trees track off pixels, max trees on pixels).
-    #[inline(always)]
-    fn is_member(&self, key: u64) -> bool {
-        (key >> 63 != 0) == (self.extremum == Extremum::Max)
     }
 
     #[inline(always)]
@@ -143,40 +157,28 @@ impl ExtremumTree {
     pub(crate) fn update(&mut self, pixel: usize, key: u64) {
         let mut node = pixel >> LEAF_SHIFT;
         let pixel = pixel as u32;
+        // Not better than the leaf's bound: an exact leaf keeps its best (another pixel, or this
+        // one if its key did not change); an inexact one stays a valid bound.
+        if !self.better(key, self.levels[0].bound[node]) {
+            return;
+        }
         for level in 0..self.levels.len() {
-            let current = self.levels[level].pixel[node];
-            if current == DIRTY {
+            if !self.better(key, self.levels[level].bound[node]) {
                 return;
             }
-            let best = self.levels[level].best[node];
-            if self.better(key, best) || current == pixel && key == best {
-                self.levels[level].best[node] = key;
-                self.levels[level].pixel[node] = pixel;
-            } else if current == pixel {
-                self.mark_dirty(level, node);
-                return;
-            } else {
-                return;
-            }
+            self.levels[level].bound[node] = key;
+            self.levels[level].pixel[node] = pixel;
             node >>= FANOUT_SHIFT;
         }
     }
 
-    /// Records that `pixel`'s key got worse for this tree, or that `pixel` left the set. O(1)
-    /// unless `pixel` was its leaf's best. Needs no membership test: a clean leaf's best is a member.
+    /// Records that `pixel`'s key got worse for this tree, or that `pixel` left the set. O(1):
+    /// needs no membership test, since an exact leaf's best is a member.
     #[inline(always)]
     pub(crate) fn worsen(&mut self, pixel: usize) {
-        let leaf = pixel >> LEAF_SHIFT;
-        if self.levels[0].pixel[leaf] == pixel as u32 {
-            self.mark_dirty(0, leaf);
-        }
-    }
-
-    fn mark_dirty(&mut self, mut level: usize, mut node: usize) {
-        while level < self.levels.len() && self.levels[level].pixel[node] != DIRTY {
-            self.levels[level].pixel[node] = DIRTY;
-            level += 1;
-            node >>= FANOUT_SHIFT;
+        let leaf_pixel = &mut self.levels[0].pixel[pixel >> LEAF_SHIFT];
+        if *leaf_pixel == pixel as u32 {
+            *leaf_pixel |= INEXACT;
         }
     }
 
@@ -185,18 +187,33 @@ impl ExtremumTree {
     /// `keys` must be the arrays every `update`/`worsen` call described.
     pub(crate) fn best(&mut self, keys: Keys<'_>) -> Option<usize> {
         let top = self.levels.len() - 1;
-        self.refresh(top, 0, keys);
-        let pixel = self.levels[top].pixel[0];
-        (pixel != NO_PIXEL).then_some(pixel as usize)
+        loop {
+            let pixel = self.levels[top].pixel[0];
+            if pixel == NO_PIXEL {
+                return None;
+            }
+            let leaf = (pixel & !INEXACT) as usize >> LEAF_SHIFT;
+            if self.levels[0].pixel[leaf] & INEXACT == 0 {
+                return Some(pixel as usize);
+            }
+            self.rescan_leaf(leaf, keys);
+            let mut node = leaf;
+            for level in 1..self.levels.len() {
+                node >>= FANOUT_SHIFT;
+                self.recompute(level, node);
+            }
+        }
     }
 
-    /// The best member key in one leaf, and its offset in the leaf.
+    /// Makes `leaf` exact by scanning its pixels.
     ///
     /// Two cheap passes instead of one over assembled `u64` keys: a `u32` min/max of the energy
-    /// words (which LLVM vectorises; the on bit makes members win in a max tree and lose in a min
-    /// tree), then the priority tie-break among the pixels holding that word.
-    #[inline(always)]
-    fn leaf_best(&self, energy: &[u32], priority: &[u32]) -> Option<(usize, u64)> {
+    /// words (the on bit makes members win in a max tree and lose in a min tree), then the priority
+    /// tie-break among the pixels holding that word.
+    fn rescan_leaf(&mut self, leaf: usize, keys: Keys<'_>) {
+        let start = leaf << LEAF_SHIFT;
+        let end = (start + (1 << LEAF_SHIFT)).min(self.pixels);
+        let (energy, priority) = (&keys.energy[start..end], &keys.priority[start..end]);
         let word = match self.extremum {
             Extremum::Min => energy.iter().fold(u32::MAX, |a, &e| a.min(e)),
             Extremum::Max => energy.iter().fold(0, |a, &e| a.max(e)),
@@ -207,49 +224,29 @@ impl ExtremumTree {
                 found = Some((at, p));
             }
         }
-        let (at, p) = found?;
-        let key = key(word, p);
-        self.is_member(key).then_some((at, key))
-    }
-
-    /// The best key among `children` (never the sentinel) and its offset.
-    #[inline(always)]
-    fn inner_best(&self, children: &[u64]) -> Option<(usize, u64)> {
-        let found = match self.extremum {
-            Extremum::Min => children.iter().copied().min(),
-            Extremum::Max => children.iter().copied().max(),
-        }?;
-        // Keys are unique among members, so the position is unambiguous.
-        let at = children.iter().position(|&k| k == found)?;
-        (found != self.sentinel).then_some((at, found))
-    }
-
-    fn refresh(&mut self, level: usize, node: usize, keys: Keys<'_>) {
-        if self.levels[level].pixel[node] != DIRTY {
-            return;
-        }
-        let (best, pixel) = if level == 0 {
-            let start = node << LEAF_SHIFT;
-            let end = (start + (1 << LEAF_SHIFT)).min(self.pixels);
-            match self.leaf_best(&keys.energy[start..end], &keys.priority[start..end]) {
-                Some((at, key)) => (key, (start + at) as u32),
-                None => (self.sentinel, NO_PIXEL),
-            }
-        } else {
-            let first = node << FANOUT_SHIFT;
-            let last = (first + (1 << FANOUT_SHIFT)).min(self.levels[level - 1].pixel.len());
-            for child in first..last {
-                if self.levels[level - 1].pixel[child] == DIRTY {
-                    self.refresh(level - 1, child, keys);
-                }
-            }
-            let below = &self.levels[level - 1];
-            match self.inner_best(&below.best[first..last]) {
-                Some((at, key)) => (key, below.pixel[first + at]),
-                None => (self.sentinel, NO_PIXEL),
-            }
+        let member = |(at, p): (usize, u32)| {
+            let key = key(word, p);
+            ((key >> 63 != 0) == (self.extremum == Extremum::Max))
+                .then_some((key, (start + at) as u32))
         };
-        self.levels[level].best[node] = best;
+        let (bound, pixel) = found.and_then(member).unwrap_or((self.sentinel, NO_PIXEL));
+        self.levels[0].bound[leaf] = bound;
+        self.levels[0].pixel[leaf] = pixel;
+    }
+
+    /// Sets inner node `node` of `level` to the best of its children.
+    fn recompute(&mut self, level: usize, node: usize) {
+        let first = node << FANOUT_SHIFT;
+        let below = &self.levels[level - 1];
+        let last = (first + (1 << FANOUT_SHIFT)).min(below.bound.len());
+        let mut best = first;
+        for child in first + 1..last {
+            if self.better(below.bound[child], below.bound[best]) {
+                best = child;
+            }
+        }
+        let (bound, pixel) = (below.bound[best], below.pixel[best] & !INEXACT);
+        self.levels[level].bound[node] = bound;
         self.levels[level].pixel[node] = pixel;
     }
 }
@@ -286,15 +283,21 @@ mod tests {
             let member = |energy: u32| (energy & ON_BIT != 0) == (extremum == Extremum::Max);
             let priority: Vec<u32> = (1..=pixels as u32).collect();
             let mut energy: Vec<u32> = (0..pixels)
-                .map(|_| (lcg(&mut rng) as u32 % 2) << 31 | lcg(&mut rng) as u32 % 1000)
+                .map(|_| ((lcg(&mut rng) as u32 % 2) << 31) | (lcg(&mut rng) as u32 % 1000))
                 .collect();
-            let mut tree = ExtremumTree::new(pixels, extremum);
+            let mut tree = ExtremumTree::new(
+                extremum,
+                Keys {
+                    energy: &energy,
+                    priority: &priority,
+                },
+            );
             for step in 0..3000 {
                 let i = (lcg(&mut rng) as usize) % pixels;
                 let old = energy[i];
                 energy[i] = match lcg(&mut rng) % 3 {
                     0 => old ^ ON_BIT,
-                    _ => old & ON_BIT | lcg(&mut rng) as u32 % 1000,
+                    _ => (old & ON_BIT) | (lcg(&mut rng) as u32 % 1000),
                 };
                 let better = match extremum {
                     Extremum::Min => energy[i] < old,
@@ -322,11 +325,10 @@ mod tests {
 
     #[test]
     fn empty_set_has_no_best() {
-        let mut tree = ExtremumTree::new(10, Extremum::Min);
         let keys = Keys {
             energy: &[ON_BIT; 10],
             priority: &[1; 10],
         };
-        assert_eq!(tree.best(keys), None);
+        assert_eq!(ExtremumTree::new(Extremum::Min, keys).best(keys), None);
     }
 }

@@ -14,13 +14,33 @@ use crate::spec::{EnergyTopology, MaskSpec};
 /// One fixed-point unit is `1 / scale` of the peak weight.
 pub type Weight = u32;
 
-/// Taps sharing one wrapped row offset `(dy, dz)`.
+/// Receives the taps of one splat: [`EnergyKernel::for_each_tap`] calls `visit(index, weight)`.
+///
+/// A trait rather than a closure so hot visitors can force inlining into both of the kernel's row
+/// loops. Every `FnMut(usize, Weight)` is one.
+pub trait TapVisitor {
+    /// One tap: the pixel at `index` receives `weight`.
+    fn visit(&mut self, index: usize, weight: Weight);
+}
+
+impl<F: FnMut(usize, Weight)> TapVisitor for F {
+    #[inline(always)]
+    fn visit(&mut self, index: usize, weight: Weight) {
+        self(index, weight)
+    }
+}
+
+/// Taps sharing one row offset `(dy, dz)`.
+///
+/// Offsets are the canonical representatives of their toroidal class, in
+/// `(-size/2, size/2]`: the natural signed offsets when the kernel does not wrap onto itself, so
+/// a target coordinate needs at most one wrap correction.
 #[derive(Clone, Debug)]
 struct KernelRow {
-    dy: u32,
-    dz: u32,
-    /// `(dx, weight)`, `dx` wrapped into `0..width`.
-    taps: Vec<(u32, Weight)>,
+    dy: i32,
+    dz: i32,
+    /// `(dx, weight)`.
+    taps: Vec<(i32, Weight)>,
 }
 
 /// The truncated, wrapped, fixed-point kernel of one [`MaskSpec`].
@@ -34,8 +54,23 @@ pub struct EnergyKernel {
     height: u32,
     depth: u32,
     rows: Vec<KernelRow>,
+    /// Smallest and largest `dx` of any tap: pixels with `x` in `-min_dx..width - max_dx` need no
+    /// x wrapping.
+    min_dx: i32,
+    max_dx: i32,
     scale: f64,
     total: u64,
+}
+
+/// The representative of `offset mod size` in `(-size/2, size/2]`.
+fn canonical(offset: i64, size: u32) -> i32 {
+    let size = i64::from(size);
+    let wrapped = offset.rem_euclid(size);
+    (if wrapped > size / 2 {
+        wrapped - size
+    } else {
+        wrapped
+    }) as i32
 }
 
 /// Per-axis bound on enumerated offsets, in periods: beyond two periods every wrapped offset
@@ -66,14 +101,10 @@ impl EnergyKernel {
         let inv_z = 1.0 / (spec.sigma_z * spec.sigma_z);
 
         // Real-valued weights, folded onto wrapped offsets.
-        let mut folded: BTreeMap<(u32, u32, u32), f64> = BTreeMap::new();
+        let mut folded: BTreeMap<(i32, i32, i32), f64> = BTreeMap::new();
         let mut add = |dx: i64, dy: i64, dz: i64, q: f64| {
             if q <= cutoff {
-                let key = (
-                    dx.rem_euclid(i64::from(w)) as u32,
-                    dy.rem_euclid(i64::from(h)) as u32,
-                    dz.rem_euclid(i64::from(d)) as u32,
-                );
+                let key = (canonical(dx, w), canonical(dy, h), canonical(dz, d));
                 *folded.entry(key).or_insert(0.0) += (-0.5 * q).exp();
             }
         };
@@ -116,7 +147,7 @@ impl EnergyKernel {
             scale *= 0.99;
         }
 
-        let mut rows: BTreeMap<(u32, u32), Vec<(u32, Weight)>> = BTreeMap::new();
+        let mut rows: BTreeMap<(i32, i32), Vec<(i32, Weight)>> = BTreeMap::new();
         let mut total = 0u64;
         for (&(dx, dy, dz), &v) in &folded {
             let weight = to_fixed(v, scale);
@@ -125,15 +156,19 @@ impl EnergyKernel {
                 .or_default()
                 .push((dx, weight as Weight));
         }
-        let rows = rows
+        let rows: Vec<KernelRow> = rows
             .into_iter()
             .map(|((dz, dy), taps)| KernelRow { dy, dz, taps })
             .collect();
+        let dxs = || rows.iter().flat_map(|r| r.taps.iter().map(|&(dx, _)| dx));
+        let (min_dx, max_dx) = (dxs().min().unwrap_or(0), dxs().max().unwrap_or(0));
         EnergyKernel {
             width: w,
             height: h,
             depth: d,
             rows,
+            min_dx,
+            max_dx,
             scale,
             total,
         }
@@ -156,25 +191,36 @@ impl EnergyKernel {
 
     /// Calls `visit(index, weight)` for every pixel the pixel at `(x, y, z)` sends energy to,
     /// itself included. `index` is `(z * height + y) * width + x` after wrapping.
+    ///
+    /// `x < width`, `y < height`, `z < depth`.
     #[inline(always)]
-    pub fn for_each_tap(&self, x: u32, y: u32, z: u32, mut visit: impl FnMut(usize, Weight)) {
+    pub fn for_each_tap(&self, x: u32, y: u32, z: u32, visitor: &mut impl TapVisitor) {
+        let wrap = |t: i32, size: u32| {
+            if t < 0 {
+                t + size as i32
+            } else if t >= size as i32 {
+                t - size as i32
+            } else {
+                t
+            }
+        };
         let (w, h, d) = (self.width, self.height, self.depth);
+        let (x, y, z) = (x as i32, y as i32, z as i32);
+        let interior = x + self.min_dx >= 0 && x + self.max_dx < w as i32;
         for row in &self.rows {
-            let mut ty = y + row.dy;
-            if ty >= h {
-                ty -= h;
-            }
-            let mut tz = z + row.dz;
-            if tz >= d {
-                tz -= d;
-            }
+            let ty = wrap(y + row.dy, h);
+            let tz = wrap(z + row.dz, d);
             let base = (tz as usize * h as usize + ty as usize) * w as usize;
-            for &(dx, weight) in &row.taps {
-                let mut tx = x + dx;
-                if tx >= w {
-                    tx -= w;
+            if interior {
+                // No tap of this row leaves the row: plain offsets from the row's start.
+                let origin = base + x as usize;
+                for &(dx, weight) in &row.taps {
+                    visitor.visit(origin.wrapping_add_signed(dx as isize), weight);
                 }
-                visit(base + tx as usize, weight);
+            } else {
+                for &(dx, weight) in &row.taps {
+                    visitor.visit(base + wrap(x + dx, w) as usize, weight);
+                }
             }
         }
     }
@@ -187,7 +233,7 @@ mod tests {
     fn weight_at(kernel: &EnergyKernel, x: u32, y: u32, z: u32) -> u64 {
         let (w, h) = (kernel.width as usize, kernel.height as usize);
         let mut found = 0;
-        kernel.for_each_tap(0, 0, 0, |i, wt| {
+        kernel.for_each_tap(0, 0, 0, &mut |i, wt| {
             if i == (z as usize * h + y as usize) * w + x as usize {
                 found += u64::from(wt);
             }

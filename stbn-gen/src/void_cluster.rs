@@ -24,7 +24,7 @@ use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 
 use crate::extremum::{Extremum, ExtremumTree, Keys, ON_BIT, key};
-use crate::kernel::EnergyKernel;
+use crate::kernel::{EnergyKernel, TapVisitor, Weight};
 use crate::spec::MaskSpec;
 
 /// Progress of one generation: `ranked` of `pixels` pixels have their rank (phase 1 reports 0).
@@ -37,6 +37,7 @@ pub struct Progress {
 }
 
 /// Energy keys and on/off state of every pixel.
+#[derive(Clone)]
 pub(crate) struct EnergyField<'k> {
     kernel: &'k EnergyKernel,
     width: u32,
@@ -45,21 +46,18 @@ pub(crate) struct EnergyField<'k> {
     /// `2^31`, so they never carry into the on bit.
     energy: Vec<u32>,
     /// Tie-break priority of each pixel.
-    priority: Vec<u32>,
-    /// Pixels the last splat touched (scratch, reused to avoid re-deriving tap indices per tree).
-    touched: Vec<u32>,
+    priority: &'k [u32],
 }
 
 impl<'k> EnergyField<'k> {
     /// All pixels off, zero energy; priorities from `priorities` (a permutation of `1..=N`).
-    pub(crate) fn new(kernel: &'k EnergyKernel, spec: &MaskSpec, priority: Vec<u32>) -> Self {
+    pub(crate) fn new(kernel: &'k EnergyKernel, spec: &MaskSpec, priority: &'k [u32]) -> Self {
         EnergyField {
             kernel,
             width: spec.width,
             height: spec.height,
             energy: vec![0; priority.len()],
             priority,
-            touched: Vec::with_capacity(kernel.taps()),
         }
     }
 
@@ -71,7 +69,7 @@ impl<'k> EnergyField<'k> {
     fn keys(&self) -> Keys<'_> {
         Keys {
             energy: &self.energy,
-            priority: &self.priority,
+            priority: self.priority,
         }
     }
 
@@ -86,39 +84,24 @@ impl<'k> EnergyField<'k> {
         &mut self,
         i: usize,
         turn_on: bool,
-        mut trees: [&mut ExtremumTree; TREES],
+        trees: [&mut ExtremumTree; TREES],
     ) {
         debug_assert_ne!(self.is_on(i), turn_on);
         self.energy[i] ^= ON_BIT;
         let (w, h) = (self.width as usize, self.height as usize);
         let (x, y, z) = (i % w, (i / w) % h, i / (w * h));
-        let (energy, touched) = (&mut self.energy, &mut self.touched);
-        touched.clear();
+        let improves = trees
+            .each_ref()
+            .map(|t| (t.extremum() == Extremum::Max) == turn_on);
+        let mut splat = Splat {
+            energy: &mut self.energy,
+            priority: self.priority,
+            trees,
+            improves,
+            turn_on,
+        };
         self.kernel
-            .for_each_tap(x as u32, y as u32, z as u32, |j, weight| {
-                if turn_on {
-                    energy[j] += weight;
-                } else {
-                    energy[j] -= weight;
-                }
-                touched.push(j as u32);
-            });
-        for tree in trees.iter_mut() {
-            if (tree.extremum() == Extremum::Max) == turn_on {
-                // Keys of members (and of `i`, which joins) may improve.
-                for &j in &self.touched {
-                    let e = self.energy[j as usize];
-                    if (e & ON_BIT != 0) == turn_on {
-                        tree.update(j as usize, key(e, self.priority[j as usize]));
-                    }
-                }
-            } else {
-                // Keys of members may only worsen, and `i` (touched by its own tap) leaves.
-                for &j in &self.touched {
-                    tree.worsen(j as usize);
-                }
-            }
-        }
+            .for_each_tap(x as u32, y as u32, z as u32, &mut splat);
     }
 
     /// The best member of `tree`.
@@ -140,11 +123,43 @@ impl<'k> EnergyField<'k> {
         for i in (0..self.energy.len()).filter(|&i| self.is_on(i)) {
             let (x, y, z) = (i % w, (i / w) % h, i / (w * h));
             self.kernel
-                .for_each_tap(x as u32, y as u32, z as u32, |j, weight| {
+                .for_each_tap(x as u32, y as u32, z as u32, &mut |j, weight| {
                     energy[j] += u64::from(weight)
                 });
         }
         energy.into_iter().map(|e| e as u32).collect()
+    }
+}
+
+/// The tap visitor of [`EnergyField::toggle`]: adds or removes one pixel's energy and tells the
+/// trees.
+struct Splat<'a, const TREES: usize> {
+    energy: &'a mut [u32],
+    priority: &'a [u32],
+    trees: [&'a mut ExtremumTree; TREES],
+    /// Per tree: whether this toggle can improve its members' keys.
+    improves: [bool; TREES],
+    turn_on: bool,
+}
+
+impl<const TREES: usize> TapVisitor for Splat<'_, TREES> {
+    #[inline(always)]
+    fn visit(&mut self, j: usize, weight: Weight) {
+        let e = if self.turn_on {
+            self.energy[j] + weight
+        } else {
+            self.energy[j] - weight
+        };
+        self.energy[j] = e;
+        for (tree, &improves) in self.trees.iter_mut().zip(&self.improves) {
+            if !improves {
+                // Members may only worsen, and the toggled pixel (touched by its own tap) leaves.
+                tree.worsen(j);
+            } else if (e & ON_BIT != 0) == self.turn_on {
+                // Members (and the toggled pixel, which joins) may improve.
+                tree.update(j, key(e, self.priority[j]));
+            }
+        }
     }
 }
 
@@ -168,7 +183,7 @@ pub fn rank_pixels(spec: &MaskSpec, progress: &mut dyn FnMut(Progress)) -> Vec<u
     let kernel = EnergyKernel::new(spec);
     let n = spec.pixels() as usize;
     let (priorities, initial) = seeded_start(spec);
-    let mut field = EnergyField::new(&kernel, spec, priorities);
+    let mut field = EnergyField::new(&kernel, spec, &priorities);
     let mut ranks = vec![0u32; n];
     let mut report = |ranked: usize| {
         progress(Progress {
@@ -183,8 +198,8 @@ pub fn rank_pixels(spec: &MaskSpec, progress: &mut dyn FnMut(Progress)) -> Vec<u
     }
     let ones = initial.len();
     {
-        let mut clusters = ExtremumTree::new(n, Extremum::Max);
-        let mut voids = ExtremumTree::new(n, Extremum::Min);
+        let mut clusters = ExtremumTree::new(Extremum::Max, field.keys());
+        let mut voids = ExtremumTree::new(Extremum::Min, field.keys());
         loop {
             let cluster = field
                 .best(&mut clusters)
@@ -199,27 +214,33 @@ pub fn rank_pixels(spec: &MaskSpec, progress: &mut dyn FnMut(Progress)) -> Vec<u
     }
     report(0);
 
-    // Phase 2a: rank the initial pattern by removing its tightest clusters, on a copy.
-    let saved_energy = field.energy.clone();
-    let mut clusters = ExtremumTree::new(n, Extremum::Max);
-    for rank in (0..ones).rev() {
-        let cluster = field.best(&mut clusters).expect("pattern pixels remain");
-        ranks[cluster] = rank as u32;
-        field.toggle(cluster, false, [&mut clusters]);
-    }
-    drop(clusters);
-    field.energy = saved_energy;
-    report(ones);
-
-    // Phases 2b and 3: fill the largest voids until every pixel is on.
-    let mut voids = ExtremumTree::new(n, Extremum::Min);
-    for rank in ones..n {
-        let void = field.best(&mut voids).expect("off pixels remain");
-        ranks[void] = rank as u32;
-        field.toggle(void, true, [&mut voids]);
-        if rank % 8192 == 0 {
-            report(rank);
+    // Phase 2a ranks the initial pattern by removing its tightest clusters; phases 2b and 3 fill
+    // the largest voids of the same pattern until every pixel is on. Both start from the phase-1
+    // state and share nothing mutable, so they run concurrently and deterministically.
+    let mut pattern = field.clone();
+    let mut removal_order = Vec::new();
+    rayon::in_place_scope(|scope| {
+        scope.spawn(|_| {
+            let mut clusters = ExtremumTree::new(Extremum::Max, pattern.keys());
+            removal_order.reserve_exact(ones);
+            for _ in 0..ones {
+                let cluster = pattern.best(&mut clusters).expect("pattern pixels remain");
+                removal_order.push(cluster as u32);
+                pattern.toggle(cluster, false, [&mut clusters]);
+            }
+        });
+        let mut voids = ExtremumTree::new(Extremum::Min, field.keys());
+        for rank in ones..n {
+            let void = field.best(&mut voids).expect("off pixels remain");
+            ranks[void] = rank as u32;
+            field.toggle(void, true, [&mut voids]);
+            if rank % 8192 == 0 {
+                report(rank);
+            }
         }
+    });
+    for (removed, &pixel) in removal_order.iter().enumerate() {
+        ranks[pixel as usize] = (ones - 1 - removed) as u32;
     }
     report(n);
     ranks
@@ -254,8 +275,8 @@ mod tests {
         let spec = MaskSpec::new(24, 20, 12, 9);
         let kernel = EnergyKernel::new(&spec);
         let (priorities, _) = seeded_start(&spec);
-        let mut field = EnergyField::new(&kernel, &spec, priorities);
-        let mut voids = ExtremumTree::new(field.energy.len(), Extremum::Min);
+        let mut field = EnergyField::new(&kernel, &spec, &priorities);
+        let mut voids = ExtremumTree::new(Extremum::Min, field.keys());
         let mut rng = ChaCha8Rng::seed_from_u64(5);
         let mut order: Vec<usize> = (0..field.energy.len()).collect();
         for round in 0..40 {
@@ -276,6 +297,21 @@ mod tests {
             .filter(|&i| !field.is_on(i))
             .min_by_key(|&i| field.keys().key(i));
         assert_eq!(best, scan);
+    }
+
+    #[test]
+    fn identical_for_any_thread_count() {
+        let spec = MaskSpec::new(32, 24, 12, 21);
+        let with_threads = |threads| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| rank_pixels(&spec, &mut |_| {}))
+        };
+        let one = with_threads(1);
+        assert_eq!(one, with_threads(2));
+        assert_eq!(one, with_threads(3));
     }
 
     #[test]
