@@ -1,1 +1,580 @@
-//! placeholder
+//! Spectral and histogram quality measures of scalar masks.
+//!
+//! Every measure reads a [`Field`]: a borrowed `width × height × depth` array of values in
+//! `[0, 1]`. Generated masks ([`crate::Volume::values`]), global ranks before per-slice re-ranking
+//! (`rank / N` of [`crate::void_cluster::rank_pixels`]) and third-party masks
+//! ([`crate::export::read_slices_png`]) all fit.
+//!
+//! # Normalised power
+//!
+//! A *series* is one slice (2D, `n = width · height` samples) or one pixel's values over the
+//! frames (1D, `n = depth` samples). With `x̄` its mean and `F(f) = Σₖ (xₖ − x̄) e^{−2πi f·k / n}`
+//! its unnormalised DFT, the normalised power at a frequency `f` is
+//!
+//! ```text
+//! P(f) = |F(f)|² / (n · s²),   s² = Σₖ (xₖ − x̄)² / (n − 1)   (the unbiased sample variance)
+//! ```
+//!
+//! `P` is dimensionless: power relative to a flat spectrum of the same variance. `P(0) = 0` (the
+//! mean is removed), and by Parseval the mean of `P` over the `n − 1` non-zero frequencies is
+//! exactly 1 for every non-constant series; white noise has `E[P(f)] = 1` at every `f ≠ 0`. Blue
+//! noise has `P ≪ 1` at low frequencies (and so `P > 1` at high ones).
+//!
+//! A constant series (variance 0, including every series of one sample) has no power at any
+//! frequency: its `P` is defined as 0 everywhere. It still counts in the averages below, so a
+//! constant field measures 0 on every band, never NaN.
+//!
+//! # Frequencies and the low band
+//!
+//! Frequencies are wrapped to signed integers `fx ∈ (−width/2, width/2]` (cycles per slice
+//! width), likewise `fy`, and `ft ∈ (−depth/2, depth/2]` (cycles per `depth` frames). In cycles
+//! per pixel (or per frame) that is `ν = (fx / width, fy / height)` and `ν = ft / depth`.
+//!
+//! The *low band* of an axis set with longest extent `L` is `0 < |ν| ≤ 1 / min(8, L)`: the lowest
+//! eighth of the sampling rate (a quarter of the band up to Nyquist), the band where a blue-noise
+//! mask is expected to have almost no power. For a square `s × s` slice it is the disc
+//! `0 < √(fx² + fy²) ≤ s / 8`, over time `1 ≤ |ft| ≤ depth / 8`. Axes shorter than 8 widen the band
+//! to their lowest non-zero frequency (`|ft| = 1` for `depth < 8`), so the band is empty only when
+//! there is no non-zero frequency at all: a `1 × 1` slice, or `depth == 1`. The low-band measures
+//! then return `None`.
+
+use std::fmt;
+
+use rayon::prelude::*;
+use rustfft::num_complex::Complex;
+use rustfft::{Fft, FftPlanner};
+
+/// A borrowed scalar field of `width × height × depth` values in `[0, 1]`, index
+/// `(z · height + y) · width + x`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Field<'a> {
+    width: usize,
+    height: usize,
+    depth: usize,
+    values: &'a [f64],
+}
+
+impl<'a> Field<'a> {
+    /// Checks the shape and that every value is in `[0, 1]` (NaN is rejected).
+    pub fn new(
+        width: usize,
+        height: usize,
+        depth: usize,
+        values: &'a [f64],
+    ) -> Result<Field<'a>, FieldError> {
+        if width == 0 || height == 0 || depth == 0 {
+            return Err(FieldError::EmptyAxis {
+                width,
+                height,
+                depth,
+            });
+        }
+        let expected = width.checked_mul(height).and_then(|n| n.checked_mul(depth));
+        if expected != Some(values.len()) {
+            return Err(FieldError::LengthMismatch {
+                width,
+                height,
+                depth,
+                len: values.len(),
+            });
+        }
+        if let Some(index) = values.iter().position(|v| !(0.0..=1.0).contains(v)) {
+            return Err(FieldError::ValueOutOfRange {
+                index,
+                value: values[index],
+            });
+        }
+        Ok(Field {
+            width,
+            height,
+            depth,
+            values,
+        })
+    }
+
+    /// Pixels per row.
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Rows per slice.
+    pub fn height(&self) -> usize {
+        self.height
+    }
+
+    /// Slices (frames).
+    pub fn depth(&self) -> usize {
+        self.depth
+    }
+
+    /// Pixels per slice, `width · height`.
+    pub fn slice_pixels(&self) -> usize {
+        self.width * self.height
+    }
+
+    /// Every value, index `(z · height + y) · width + x`.
+    pub fn values(&self) -> &'a [f64] {
+        self.values
+    }
+
+    /// The values of slice `z`, row-major. Panics if `z >= depth`.
+    pub fn slice(&self, z: usize) -> &'a [f64] {
+        let n = self.slice_pixels();
+        &self.values[z * n..(z + 1) * n]
+    }
+}
+
+/// Why [`Field::new`] rejected its arguments.
+#[derive(Clone, Debug, PartialEq)]
+pub enum FieldError {
+    /// An axis has extent 0.
+    EmptyAxis {
+        /// Given width.
+        width: usize,
+        /// Given height.
+        height: usize,
+        /// Given depth.
+        depth: usize,
+    },
+    /// `values.len()` is not `width · height · depth`.
+    LengthMismatch {
+        /// Given width.
+        width: usize,
+        /// Given height.
+        height: usize,
+        /// Given depth.
+        depth: usize,
+        /// Number of values given.
+        len: usize,
+    },
+    /// A value is outside `[0, 1]` or NaN.
+    ValueOutOfRange {
+        /// Index of the first such value.
+        index: usize,
+        /// The value.
+        value: f64,
+    },
+}
+
+impl fmt::Display for FieldError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            FieldError::EmptyAxis {
+                width,
+                height,
+                depth,
+            } => write!(f, "field size {width}x{height}x{depth} has an empty axis"),
+            FieldError::LengthMismatch {
+                width,
+                height,
+                depth,
+                len,
+            } => write!(
+                f,
+                "field size {width}x{height}x{depth} needs {} values, got {len}",
+                (*width as u128) * (*height as u128) * (*depth as u128)
+            ),
+            FieldError::ValueOutOfRange { index, value } => {
+                write!(f, "value {value} at index {index} is outside [0, 1]")
+            }
+        }
+    }
+}
+
+impl std::error::Error for FieldError {}
+
+/// Mean normalised power ([module docs](self)) over the spatial low band, averaged over slices.
+///
+/// Dimensionless, `≥ 0`: about 1 for white noise, near 0 for a mask that is blue within each
+/// slice. `None` for `1 × 1` slices (no non-zero spatial frequency).
+pub fn spatial_low_band(field: &Field) -> Option<f64> {
+    let (w, h) = (field.width, field.height);
+    let power = spatial_power(field);
+    // |ν| ≤ 1/m  ⇔  m² · ((fx·h)² + (fy·w)²) ≤ (w·h)², exact in integers (the values fit in memory, so
+    // w·h < 2^61 and every term stays below 2^128).
+    let m = 8.min(w.max(h)) as u128;
+    let limit = ((w * h) as u128).pow(2);
+    let mut sum = 0.0;
+    let mut count = 0usize;
+    for fy in 0..h {
+        let sy = wrapped(fy, h).unsigned_abs() as u128 * w as u128;
+        for fx in 0..w {
+            let sx = wrapped(fx, w).unsigned_abs() as u128 * h as u128;
+            let r2 = sx * sx + sy * sy;
+            if r2 > 0 && m * m * r2 <= limit {
+                sum += power[fy * w + fx];
+                count += 1;
+            }
+        }
+    }
+    (count > 0).then(|| sum / count as f64)
+}
+
+/// Mean normalised power ([module docs](self)) over the temporal low band
+/// `1 ≤ ft ≤ max(depth / 8, 1)`, averaged over pixels.
+///
+/// Dimensionless, `≥ 0`: about 1 for white noise over time, near 0 for a mask whose pixels are
+/// blue over time. With `depth < 8` the band is the single lowest frequency `ft = 1` (for
+/// `depth == 2` that is also Nyquist, so the measure only tells whether consecutive frames tend to
+/// alternate). `None` when `depth == 1`.
+pub fn temporal_low_band(field: &Field) -> Option<f64> {
+    let spectrum = temporal_spectrum(field);
+    let top = (field.depth / 8).max(1);
+    (field.depth > 1).then(|| spectrum[1..=top].iter().sum::<f64>() / top as f64)
+}
+
+/// The mean normalised spatial power of every frequency, averaged over slices.
+///
+/// `width · height` values, index `fy · width + fx` with unwrapped DFT indices `fx ∈ 0..width`,
+/// `fy ∈ 0..height` (so DC is at index 0, not centred). Dimensionless; the DC entry is 0. For a
+/// field with no constant slice the mean of the non-DC entries is exactly 1 (up to rounding).
+pub fn spatial_power(field: &Field) -> Vec<f64> {
+    let (w, h) = (field.width, field.height);
+    let n = w * h;
+    let mut planner = FftPlanner::<f64>::new();
+    let fft_x = planner.plan_fft_forward(w);
+    let fft_y = planner.plan_fft_forward(h);
+    let slices: Vec<usize> = (0..field.depth).collect();
+    let mut sum = sum_in_order(
+        slices
+            .par_chunks(field.depth.div_ceil(TASKS))
+            .map(|slices| {
+                let mut sum = vec![0.0; n];
+                for &z in slices {
+                    add_slice_power(field.slice(z), w, h, &*fft_x, &*fft_y, &mut sum);
+                }
+                sum
+            }),
+        n,
+    );
+    let depth = field.depth as f64;
+    sum.iter_mut().for_each(|p| *p /= depth);
+    sum
+}
+
+/// The spatial power of [`spatial_power`] averaged over rings of equal radial frequency.
+///
+/// Entry `r` is the mean over the frequencies with `round(L · |ν|) == r`, where `L = max(width,
+/// height)` and `|ν|` is in cycles per pixel ([module docs](self)): for a square slice, the ring
+/// `r − ½ ≤ √(fx² + fy²) < r + ½`. Entries run from `r = 0` (DC, always 0) to the corner
+/// frequency `round(L · |ν|max)`, about `0.71 · L`; rings beyond `L / 2` hold only the corners.
+/// Dimensionless; white noise gives about 1 at every `r > 0`. Every ring holds at least one
+/// frequency.
+pub fn radial_spectrum(field: &Field) -> Vec<f64> {
+    let (w, h) = (field.width, field.height);
+    let power = spatial_power(field);
+    let long = w.max(h) as f64;
+    let radius = |fx: usize, fy: usize| {
+        let nx = wrapped(fx, w) as f64 / w as f64;
+        let ny = wrapped(fy, h) as f64 / h as f64;
+        (long * nx.hypot(ny)).round() as usize
+    };
+    let rings = radius(w / 2, h / 2) + 1;
+    let mut sum = vec![0.0; rings];
+    let mut count = vec![0usize; rings];
+    for fy in 0..h {
+        for fx in 0..w {
+            let r = radius(fx, fy);
+            sum[r] += power[fy * w + fx];
+            count[r] += 1;
+        }
+    }
+    sum.iter().zip(&count).map(|(s, &c)| s / c as f64).collect()
+}
+
+/// The mean normalised power of every pixel's series over the frames, per temporal frequency.
+///
+/// `depth / 2 + 1` values, entry `ft` for `ft ∈ 0..=depth/2` (cycles per `depth` frames; the
+/// negative frequencies mirror these). Dimensionless; entry 0 is 0, and white noise gives about 1
+/// elsewhere.
+pub fn temporal_spectrum(field: &Field) -> Vec<f64> {
+    /// Pixels whose series one task transforms together.
+    const CHUNK: usize = 1024;
+    let (d, n) = (field.depth, field.slice_pixels());
+    let bins = d / 2 + 1;
+    let fft = FftPlanner::<f64>::new().plan_fft_forward(d);
+    let starts: Vec<usize> = (0..n).step_by(CHUNK).collect();
+    let sum = sum_in_order(
+        starts.into_par_iter().map(|start| {
+            let pixels = CHUNK.min(n - start);
+            let mut buffer = Vec::with_capacity(pixels * d);
+            for p in start..start + pixels {
+                buffer.extend((0..d).map(|z| Complex::new(field.values[z * n + p], 0.0)));
+            }
+            let mut sum = vec![0.0; bins];
+            for series in buffer.chunks_exact_mut(d) {
+                if let Some(scale) = normalise(series) {
+                    fft.process(series);
+                    for (s, c) in sum.iter_mut().zip(&series[..bins]).skip(1) {
+                        *s += c.norm_sqr() * scale;
+                    }
+                }
+            }
+            sum
+        }),
+        bins,
+    );
+    sum.into_iter().map(|s| s / n as f64).collect()
+}
+
+/// The largest relative deviation of any slice's histogram from uniform.
+///
+/// Each slice's values are counted in `bins` equal bins of `[0, 1]` (value `v` goes to bin
+/// `min(⌊v · bins⌋, bins − 1)`); with `e = width · height / bins` the expected count, the result
+/// is `max |count − e| / e` over all slices and bins. Dimensionless, `≥ 0`: 0 for an exactly
+/// uniform histogram (every slice of a [`crate::Volume`] when `bins` divides its slice size), 0.5
+/// when some bin holds half again (or half less than) its share. Panics if `bins == 0`.
+pub fn slice_histogram_deviation(field: &Field, bins: usize) -> f64 {
+    assert!(bins > 0, "a histogram needs at least one bin");
+    let expected = field.slice_pixels() as f64 / bins as f64;
+    (0..field.depth)
+        .into_par_iter()
+        .map(|z| {
+            let mut counts = vec![0usize; bins];
+            for &v in field.slice(z) {
+                counts[((v * bins as f64) as usize).min(bins - 1)] += 1;
+            }
+            counts
+                .iter()
+                .map(|&c| (c as f64 - expected).abs() / expected)
+                .fold(0.0, f64::max)
+        })
+        .reduce(|| 0.0, f64::max)
+}
+
+/// Most parallel tasks [`spatial_power`] splits the slices into (bounding its memory to this
+/// many spectra).
+const TASKS: usize = 16;
+
+/// The element-wise sum of `parts`, added in task order whatever the thread count, so every
+/// measure is bit-for-bit reproducible.
+fn sum_in_order(parts: impl IndexedParallelIterator<Item = Vec<f64>>, len: usize) -> Vec<f64> {
+    let parts: Vec<Vec<f64>> = parts.collect();
+    let mut sum = vec![0.0; len];
+    for part in &parts {
+        sum.iter_mut().zip(part).for_each(|(s, p)| *s += p);
+    }
+    sum
+}
+
+/// The signed frequency of DFT index `f` of an axis of length `len`, in `(−len/2, len/2]`.
+fn wrapped(f: usize, len: usize) -> isize {
+    if f <= len / 2 {
+        f as isize
+    } else {
+        f as isize - len as isize
+    }
+}
+
+/// Removes the mean of `series` (real parts) and returns the factor turning `|F(f)|²` into the
+/// normalised power `P(f)`: `(n − 1) / (n · Σ(x − x̄)²)`. `None` for a constant series.
+fn normalise(series: &mut [Complex<f64>]) -> Option<f64> {
+    let first = series[0].re;
+    if series.iter().all(|c| c.re == first) {
+        return None;
+    }
+    let n = series.len() as f64;
+    let mean = series.iter().map(|c| c.re).sum::<f64>() / n;
+    let mut squares = 0.0;
+    for c in series.iter_mut() {
+        c.re -= mean;
+        squares += c.re * c.re;
+    }
+    (squares > 0.0).then(|| (n - 1.0) / (n * squares))
+}
+
+/// Adds the normalised 2D power of one `w × h` slice to `sum` (index `fy · w + fx`), leaving DC
+/// at 0. A constant slice adds nothing.
+fn add_slice_power(
+    slice: &[f64],
+    w: usize,
+    h: usize,
+    fft_x: &dyn Fft<f64>,
+    fft_y: &dyn Fft<f64>,
+    sum: &mut [f64],
+) {
+    let mut rows: Vec<Complex<f64>> = slice.iter().map(|&v| Complex::new(v, 0.0)).collect();
+    let Some(scale) = normalise(&mut rows) else {
+        return;
+    };
+    fft_x.process(&mut rows);
+    // Transpose so every column is contiguous, then transform the columns.
+    let mut columns = vec![Complex::default(); w * h];
+    for (y, row) in rows.chunks_exact(w).enumerate() {
+        for (x, &c) in row.iter().enumerate() {
+            columns[x * h + y] = c;
+        }
+    }
+    fft_y.process(&mut columns);
+    for (fx, column) in columns.chunks_exact(h).enumerate() {
+        for (fy, c) in column.iter().enumerate() {
+            if fx != 0 || fy != 0 {
+                sum[fy * w + fx] += c.norm_sqr() * scale;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A deterministic pseudo-random value in `[0, 1)` (SplitMix64).
+    fn noise(seed: u64, len: usize) -> Vec<f64> {
+        let mut state = seed;
+        (0..len)
+            .map(|_| {
+                state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+                let mut z = state;
+                z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+                z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+                (z ^ (z >> 31)) as f64 / 2f64.powi(64)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn field_rejects_bad_shapes_and_values() {
+        let values = [0.5; 8];
+        assert!(Field::new(2, 2, 2, &values).is_ok());
+        assert!(matches!(
+            Field::new(0, 2, 2, &values),
+            Err(FieldError::EmptyAxis { .. })
+        ));
+        assert!(matches!(
+            Field::new(2, 2, 3, &values),
+            Err(FieldError::LengthMismatch { len: 8, .. })
+        ));
+        let bad = [0.5, 0.5, f64::NAN, 0.5];
+        assert_eq!(
+            Field::new(2, 2, 1, &bad).unwrap_err().to_string(),
+            "value NaN at index 2 is outside [0, 1]"
+        );
+        assert!(Field::new(2, 2, 1, &[0.0, 1.0, 1.5, 0.0]).is_err());
+    }
+
+    #[test]
+    fn parseval_makes_the_mean_non_dc_power_one() {
+        // Odd, non-square sizes exercise the wrapping and the mixed-radix FFTs.
+        let (w, h, d) = (13, 6, 5);
+        let values = noise(3, w * h * d);
+        let field = Field::new(w, h, d, &values).unwrap();
+        let power = spatial_power(&field);
+        assert_eq!(power[0], 0.0);
+        let mean = power[1..].iter().sum::<f64>() / (w * h - 1) as f64;
+        assert!((mean - 1.0).abs() < 1e-12, "{mean}");
+        // Temporal: d = 5 has the non-DC frequencies ±1, ±2, so the mean of bins 1 and 2 is 1.
+        let temporal = temporal_spectrum(&field);
+        assert_eq!(temporal.len(), 3);
+        assert_eq!(temporal[0], 0.0);
+        assert!(((temporal[1] + temporal[2]) / 2.0 - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn normalisation_matches_a_direct_dft() {
+        let series = [0.1, 0.7, 0.3, 0.9, 0.2, 0.4];
+        let n = series.len();
+        let mean = series.iter().sum::<f64>() / n as f64;
+        let variance = series.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1) as f64;
+        let field = Field::new(1, 1, n, &series).unwrap();
+        let spectrum = temporal_spectrum(&field);
+        for (f, &p) in spectrum.iter().enumerate().skip(1) {
+            let (mut re, mut im) = (0.0, 0.0);
+            for (k, x) in series.iter().enumerate() {
+                let angle = -2.0 * std::f64::consts::PI * (f * k) as f64 / n as f64;
+                re += (x - mean) * angle.cos();
+                im += (x - mean) * angle.sin();
+            }
+            let direct = (re * re + im * im) / (n as f64 * variance);
+            assert!((p - direct).abs() < 1e-12, "f {f}: {p} vs {direct}");
+        }
+    }
+
+    #[test]
+    fn low_band_covers_the_documented_frequencies() {
+        // A unit impulse at one frequency pair, via a cosine: power only at ±(fx, fy).
+        let (w, h) = (64, 64);
+        let slice_with = |fx: usize, fy: usize| -> Vec<f64> {
+            (0..w * h)
+                .map(|i| {
+                    let (x, y) = ((i % w) as f64, (i / w) as f64);
+                    let phase = 2.0
+                        * std::f64::consts::PI
+                        * (fx as f64 * x / w as f64 + fy as f64 * y / h as f64);
+                    0.5 + 0.4 * phase.cos()
+                })
+                .collect()
+        };
+        // (8, 0) is on the band edge (radius 8 = 64 / 8); (6, 6) is at radius 8.49, outside.
+        for (fx, fy, inside) in [
+            (8, 0, true),
+            (1, 0, true),
+            (5, 6, true),
+            (6, 6, false),
+            (9, 0, false),
+        ] {
+            let values = slice_with(fx, fy);
+            let band = spatial_low_band(&Field::new(w, h, 1, &values).unwrap()).unwrap();
+            assert_eq!(band > 0.5, inside, "({fx}, {fy}): {band}");
+        }
+    }
+
+    #[test]
+    fn degenerate_axes_have_no_band() {
+        let values = noise(1, 6);
+        let column = Field::new(1, 1, 6, &values).unwrap();
+        assert_eq!(spatial_low_band(&column), None);
+        // depth 6 < 8: the band is ft = 1 alone.
+        let expected = temporal_spectrum(&column)[1];
+        assert_eq!(temporal_low_band(&column), Some(expected));
+        let image = Field::new(3, 2, 1, &values).unwrap();
+        assert_eq!(temporal_low_band(&image), None);
+        assert!(spatial_low_band(&image).is_some());
+        assert_eq!(temporal_spectrum(&image), vec![0.0]);
+    }
+
+    #[test]
+    fn radial_rings_are_never_empty() {
+        for (w, h) in [(64, 2), (7, 5), (1, 9), (16, 16), (3, 40)] {
+            let values = noise(w as u64, w * h);
+            let field = Field::new(w, h, 1, &values).unwrap();
+            let rings = radial_spectrum(&field);
+            assert_eq!(rings[0], 0.0);
+            assert!(
+                rings[1..].iter().all(|p| p.is_finite() && *p > 0.0),
+                "{w}x{h}: {rings:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn results_do_not_depend_on_the_thread_count() {
+        let values = noise(9, 48 * 48 * 40);
+        let field = Field::new(48, 48, 40, &values).unwrap();
+        let measure = |threads| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| (spatial_power(&field), temporal_spectrum(&field)))
+        };
+        let one = measure(1);
+        for threads in [2, 3, 7] {
+            assert!(measure(threads) == one, "{threads} threads");
+        }
+    }
+
+    #[test]
+    fn histogram_deviation_measures_the_worst_bin() {
+        let uniform: Vec<f64> = (0..16).map(|i| (i as f64 + 0.5) / 16.0).collect();
+        let field = Field::new(4, 4, 1, &uniform).unwrap();
+        assert_eq!(slice_histogram_deviation(&field, 4), 0.0);
+        assert_eq!(slice_histogram_deviation(&field, 16), 0.0);
+        // Second slice: one value moved from bin 0 to bin 3 → counts 3,4,4,5 of 4 expected.
+        let mut two = uniform.clone();
+        two.extend(&uniform);
+        two[16] = 1.0;
+        let field = Field::new(4, 4, 2, &two).unwrap();
+        assert_eq!(slice_histogram_deviation(&field, 4), 0.25);
+    }
+}

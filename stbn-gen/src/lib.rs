@@ -14,6 +14,7 @@
 //! ```
 
 pub mod analysis;
+pub mod export;
 mod extremum;
 pub mod kernel;
 pub mod spec;
