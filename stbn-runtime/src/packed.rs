@@ -72,6 +72,26 @@ impl<'a> PackedStbn<'a> {
         Ok(Self { header, payload })
     }
 
+    /// Validates the header and the total length only, in a `const` context: what the statics
+    /// the build emits use (`pub static M: PackedStbn<'static> = match PackedStbn::from_bytes_unverified(…)`),
+    /// so a malformed embedded blob fails compilation. The payload CRC is not checked here (the
+    /// build verified it when it wrote the blob); [`PackedStbn::from_bytes`] checks it, and a
+    /// damaged compressed stream is still an error when decoding, never a panic.
+    ///
+    /// # Errors
+    /// Any header error; [`Error::Truncated`] or [`Error::PayloadLength`] if the blob is not
+    /// exactly `64 + payload_len` bytes.
+    pub const fn from_bytes_unverified(bytes: &'a [u8]) -> Result<Self, Error> {
+        let header = match MaskHeader::parse(bytes) {
+            Ok(h) => h,
+            Err(e) => return Err(e),
+        };
+        match payload_of(bytes, &header) {
+            Ok(payload) => Ok(Self { header, payload }),
+            Err(e) => Err(e),
+        }
+    }
+
     /// The blob's header (describing the stored, possibly compressed, payload).
     pub const fn header(&self) -> &MaskHeader {
         &self.header

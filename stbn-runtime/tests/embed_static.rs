@@ -1,7 +1,7 @@
 //! A blob assembled in const context and validated into a `static Stbn`, exactly
 //! as generated embedding code does.
 
-use stbn_runtime::{Compression, Encoding, Error, MaskHeader, Stbn, ValueMap};
+use stbn_runtime::{Compression, Encoding, Error, MaskHeader, PackedStbn, Stbn, ValueMap};
 
 const W: u32 = 8;
 const H: u32 = 4;
@@ -64,6 +64,25 @@ pub static SCALAR_8X4X2: Stbn<'static> = match Stbn::from_bytes_unverified(&BYTE
     Ok(s) => s,
     Err(_) => panic!("embedded STBN blob is invalid"),
 };
+
+/// The generated-code pattern for compressed masks (the same const validation; this blob
+/// happens to be stored uncompressed, which a `PackedStbn` also accepts).
+pub static PACKED_8X4X2: PackedStbn<'static> = match PackedStbn::from_bytes_unverified(&BYTES) {
+    Ok(s) => s,
+    Err(_) => panic!("embedded STBN blob is invalid"),
+};
+
+/// A packed blob one byte short is rejected in const context.
+const PACKED_TRUNCATED: Result<PackedStbn<'static>, Error> =
+    PackedStbn::from_bytes_unverified(BYTES.split_at(BLOB_LEN - 1).0);
+
+#[test]
+fn static_packed_mask_decodes() {
+    let mut buf = [0u8; PAYLOAD_LEN];
+    let view = PACKED_8X4X2.decode_into(&mut buf).unwrap();
+    assert_eq!(view.data(), &payload());
+    assert!(matches!(PACKED_TRUNCATED, Err(Error::Truncated { .. })));
+}
 
 /// `from_bytes_unverified` really is evaluated at compile time: errors are constants too.
 const TRUNCATED: Result<Stbn<'static>, Error> = Stbn::from_bytes_unverified(BYTES.split_at(70).0);

@@ -1,0 +1,247 @@
+//! The build-script entry points: manifest → blobs (cached) → files in `OUT_DIR` → statics.
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use rayon::prelude::*;
+
+use crate::cache::{CACHE_DIR_ENV, Cache, CacheStatus, default_cache_dir, write_atomically};
+use crate::codegen::{EmbeddedMask, assets_rs};
+use crate::{Error, Manifest};
+
+/// File name of the generated module in the output directory.
+pub const ASSETS_RS: &str = "stbn_assets.rs";
+
+/// Subdirectory of the output directory that holds the embedded blobs, `<name>.stbn`.
+pub const BLOB_DIR: &str = "stbn";
+
+/// What [`embed_with`] works on.
+#[derive(Clone, Debug)]
+pub struct EmbedConfig {
+    /// The manifest file.
+    pub manifest: PathBuf,
+    /// Where `stbn/<name>.stbn` and [`ASSETS_RS`] are written (`OUT_DIR` in a build script).
+    pub out_dir: PathBuf,
+    /// The blob cache.
+    pub cache: Cache,
+}
+
+/// What happened to one mask.
+#[derive(Clone, Debug)]
+pub struct MaskReport {
+    /// The mask's `name`.
+    pub name: String,
+    /// The generated static's name.
+    pub static_name: String,
+    /// Whether the blob came from the cache.
+    pub cache: CacheStatus,
+    /// Whether the blob was written to the cache.
+    pub stored: bool,
+    /// Size of the embedded blob in bytes, 64-byte header included.
+    pub bytes: usize,
+    /// Time taken to obtain the blob (cache read and verification, or generation and encoding).
+    pub time: Duration,
+    /// The embedded blob file, `<out_dir>/stbn/<name>.stbn` (absolute).
+    pub blob_path: PathBuf,
+}
+
+/// What [`embed`] / [`embed_with`] did.
+#[derive(Clone, Debug)]
+pub struct EmbedReport {
+    /// One report per mask, in manifest order.
+    pub masks: Vec<MaskReport>,
+    /// The generated module, `<out_dir>/stbn_assets.rs` (absolute).
+    pub assets_rs: PathBuf,
+    /// Problems that did not stop the build (cache entries that were invalid or could not be
+    /// written, stale files that could not be removed).
+    pub warnings: Vec<String>,
+}
+
+impl fmt::Display for EmbedReport {
+    /// One line per mask: `stbn: NAME: hit|miss|invalid cache entry, BYTES bytes, MS ms`.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for mask in &self.masks {
+            let cache = match &mask.cache {
+                CacheStatus::Hit => "cache hit",
+                CacheStatus::Miss => "cache miss, generated",
+                CacheStatus::Invalid(_) => "invalid cache entry, regenerated",
+            };
+            writeln!(
+                f,
+                "stbn: {}: {cache}, {} bytes, {:.1} ms",
+                mask.name,
+                mask.bytes,
+                mask.time.as_secs_f64() * 1e3
+            )?;
+        }
+        Ok(())
+    }
+}
+
+/// Embeds the masks of `config.manifest`: for each mask, gets its blob from `config.cache` (or
+/// generates it, different masks in parallel, with deterministic output), writes it to
+/// `<out_dir>/stbn/<name>.stbn`, removes blobs there of masks no longer declared, and writes
+/// `<out_dir>/stbn_assets.rs` with one `pub static` per mask (see
+/// [`codegen::assets_rs`](crate::codegen::assets_rs)). Files whose content is unchanged are not
+/// rewritten.
+///
+/// Prints nothing and reads no environment variables; [`embed`] is the build-script wrapper.
+///
+/// # Errors
+/// [`Error::Manifest`] / [`Error::Io`] if the manifest is invalid or unreadable, [`Error::Io`] if
+/// the output directory cannot be written, [`Error::NonUtf8Path`] if it is not valid UTF-8.
+pub fn embed_with(config: &EmbedConfig) -> Result<EmbedReport, Error> {
+    let manifest = Manifest::load(&config.manifest)?;
+    let out_dir = std::path::absolute(&config.out_dir)
+        .map_err(|e| Error::io("resolve the output directory", &config.out_dir, e))?;
+    let blob_dir = out_dir.join(BLOB_DIR);
+    std::fs::create_dir_all(&blob_dir)
+        .map_err(|e| Error::io("create the blob directory", &blob_dir, e))?;
+
+    let fetched: Vec<_> = manifest
+        .masks()
+        .par_iter()
+        .map(|entry| {
+            let start = Instant::now();
+            let result = config
+                .cache
+                .fetch(&entry.spec(), entry.encoding, entry.compression);
+            (result, start.elapsed())
+        })
+        .collect();
+
+    let mut masks = Vec::with_capacity(fetched.len());
+    let mut warnings = Vec::new();
+    for (entry, (result, time)) in manifest.masks().iter().zip(fetched) {
+        let fetched = result.map_err(|source| Error::Generate {
+            mask: entry.name.clone(),
+            source,
+        })?;
+        let blob_path = blob_dir.join(format!("{}.stbn", entry.name));
+        write_if_changed(&blob_path, &fetched.blob)?;
+        warnings.extend(
+            fetched
+                .warnings
+                .into_iter()
+                .map(|w| format!("mask {:?}: {w}", entry.name)),
+        );
+        masks.push(MaskReport {
+            name: entry.name.clone(),
+            static_name: entry.static_name(),
+            cache: fetched.status,
+            stored: fetched.stored,
+            bytes: fetched.blob.len(),
+            time,
+            blob_path,
+        });
+    }
+    warnings.extend(remove_stale_blobs(&blob_dir, &masks));
+
+    let embedded: Vec<EmbeddedMask<'_>> = manifest
+        .masks()
+        .iter()
+        .zip(&masks)
+        .map(|(entry, report)| EmbeddedMask {
+            entry,
+            blob_path: &report.blob_path,
+            blob_len: report.bytes,
+        })
+        .collect();
+    let code = assets_rs(manifest.path(), &embedded)?;
+    let assets_rs = out_dir.join(ASSETS_RS);
+    write_if_changed(&assets_rs, code.as_bytes())?;
+    Ok(EmbedReport {
+        masks,
+        assets_rs,
+        warnings,
+    })
+}
+
+/// Writes `bytes` to `path` unless it already holds exactly them.
+fn write_if_changed(path: &Path, bytes: &[u8]) -> Result<(), Error> {
+    if std::fs::read(path).is_ok_and(|old| old == bytes) {
+        return Ok(());
+    }
+    write_atomically(path, bytes).map_err(|e| Error::io("write", path, e))
+}
+
+/// Removes `*.stbn` files in `blob_dir` that belong to no mask of `masks`; returns warnings for
+/// those that could not be removed.
+fn remove_stale_blobs(blob_dir: &Path, masks: &[MaskReport]) -> Vec<String> {
+    let Ok(dir) = std::fs::read_dir(blob_dir) else {
+        return Vec::new();
+    };
+    dir.flatten()
+        .map(|file| file.path())
+        .filter(|path| {
+            path.extension().is_some_and(|e| e == "stbn")
+                && !masks.iter().any(|m| &m.blob_path == path)
+        })
+        .filter_map(|path| {
+            std::fs::remove_file(&path)
+                .err()
+                .map(|e| format!("could not remove the stale blob {} ({e})", path.display()))
+        })
+        .collect()
+}
+
+/// A path from a Cargo build-script environment variable.
+fn env_path(var: &'static str) -> Result<PathBuf, Error> {
+    std::env::var_os(var)
+        .map(PathBuf::from)
+        .ok_or(Error::MissingEnv(var))
+}
+
+/// Embeds the masks of a manifest; call it from `build.rs`.
+///
+/// `manifest_path` is relative to the package root (`CARGO_MANIFEST_DIR`). Blobs are cached in
+/// [`default_cache_dir`](crate::cache::default_cache_dir) (`$STBN_CACHE_DIR`, else
+/// `<target dir>/stbn-cache`) and written to `OUT_DIR`; the generated module is
+/// `$OUT_DIR/stbn_assets.rs`, to be included with
+/// `include!(concat!(env!("OUT_DIR"), "/stbn_assets.rs"))`.
+///
+/// Prints `cargo::rerun-if-changed=<manifest>` and `cargo::rerun-if-env-changed=STBN_CACHE_DIR`
+/// (so an unchanged manifest does not rerun the script), and each warning of the report as
+/// `cargo::warning=`. See [`embed_with`] for what is written.
+///
+/// # Errors
+/// [`Error::MissingEnv`] outside a build script; otherwise as [`embed_with`].
+pub fn embed(manifest_path: impl AsRef<Path>) -> Result<EmbedReport, Error> {
+    let manifest = env_path("CARGO_MANIFEST_DIR")?.join(manifest_path);
+    let out_dir = env_path("OUT_DIR")?;
+    // Printed before anything can fail, so fixing a broken manifest reruns the script.
+    println!("cargo::rerun-if-changed={}", manifest.display());
+    println!("cargo::rerun-if-env-changed={CACHE_DIR_ENV}");
+    let cache = Cache::new(default_cache_dir()?);
+    let report = embed_with(&EmbedConfig {
+        manifest,
+        out_dir,
+        cache,
+    })?;
+    for warning in &report.warnings {
+        for line in warning.lines() {
+            println!("cargo::warning={line}");
+        }
+    }
+    Ok(report)
+}
+
+/// [`embed`], turning an error into a clean build failure: the error is printed as
+/// `cargo::error=` lines (Cargo shows them as `error: …`, without a backtrace) and the process
+/// exits with status 1. On success prints the report (visible with `cargo build -vv`) and returns
+/// it.
+pub fn embed_or_exit(manifest_path: impl AsRef<Path>) -> EmbedReport {
+    match embed(manifest_path) {
+        Ok(report) => {
+            print!("{report}");
+            report
+        }
+        Err(error) => {
+            for line in error.to_string().lines() {
+                println!("cargo::error={line}");
+            }
+            std::process::exit(1)
+        }
+    }
+}

@@ -1,0 +1,44 @@
+//! Build-script support for embedding spatiotemporal blue-noise masks.
+//!
+//! Masks are declared in a RON manifest (see [`manifest`] for the format), generated with
+//! [`stbn_gen`], encoded as `.stbn` blobs ([`encode`]), cached across builds ([`cache`]) and
+//! embedded as `static`s that [`stbn_runtime`] samples without allocating ([`codegen`]).
+//!
+//! # Use
+//!
+//! `build.rs`, whose `main` needs only this line:
+//! ```no_run
+//! stbn_build_support::embed_or_exit("assets.ron");
+//! ```
+//!
+//! The crate (which depends on `stbn-runtime` and `include_bytes_aligned`):
+//! ```ignore
+//! pub mod masks {
+//!     include!(concat!(env!("OUT_DIR"), "/stbn_assets.rs"));
+//! }
+//! let value = masks::SCALAR_64.sample(x, y, frame);
+//! ```
+//!
+//! # Pieces
+//!
+//! * [`Manifest::load`] / [`Manifest::parse`]: the validated list of [`MaskEntry`]s; every error is
+//!   a [`ManifestError`] naming file, line, column and field.
+//! * [`encode::encode_volume`]: a generated volume as a complete blob.
+//! * [`Cache`]: content-addressed blob cache with verified reads and atomic writes.
+//! * [`codegen::assets_rs`]: the module source.
+//! * [`embed`] / [`embed_with`] / [`embed_or_exit`]: all of the above for a build script.
+
+pub mod cache;
+pub mod codegen;
+mod embed;
+pub mod encode;
+mod error;
+pub mod manifest;
+mod source;
+
+pub use cache::{Cache, CacheKey, CacheStatus};
+pub use embed::{
+    ASSETS_RS, BLOB_DIR, EmbedConfig, EmbedReport, MaskReport, embed, embed_or_exit, embed_with,
+};
+pub use error::{Error, ManifestError};
+pub use manifest::{Manifest, MaskEntry, MaskKind};

@@ -1,0 +1,351 @@
+//! `embed_with` end to end on small manifests: cache hits, invalid entries, concurrency,
+//! unwritable cache directories, and what ends up in the output directory.
+
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Barrier};
+
+use stbn_build_support::encode::encode_volume;
+use stbn_build_support::{
+    Cache, CacheKey, CacheStatus, EmbedConfig, EmbedReport, Error, Manifest, embed_with,
+};
+use tempfile::TempDir;
+
+const MANIFEST: &str = r#"(
+    masks: [
+        (name: "a", kind: Scalar, size: (16, 16, 8), seed: 1, encoding: Unorm8),
+        (name: "b", kind: Blue3D, size: (16, 8, 4), seed: 2, sigma: 1.5, encoding: F32, compression: Lz4),
+        (name: "c", kind: Blue2D, size: (8, 8, 4), seed: 3, encoding: Unorm16, compression: Deflate),
+    ],
+)
+"#;
+
+/// A temporary directory holding a manifest.
+struct Project {
+    dir: TempDir,
+}
+
+impl Project {
+    fn new(manifest: &str) -> Project {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("assets.ron"), manifest).unwrap();
+        Project { dir }
+    }
+
+    fn path(&self, name: &str) -> PathBuf {
+        self.dir.path().join(name)
+    }
+
+    fn config(&self, out: &str, cache: &Path) -> EmbedConfig {
+        EmbedConfig {
+            manifest: self.path("assets.ron"),
+            out_dir: self.path(out),
+            cache: Cache::new(cache),
+        }
+    }
+
+    fn embed(&self, out: &str, cache: &Path) -> EmbedReport {
+        embed_with(&self.config(out, cache)).unwrap()
+    }
+
+    fn manifest(&self) -> Manifest {
+        Manifest::load(self.path("assets.ron")).unwrap()
+    }
+}
+
+/// The embedded blobs of a report, by mask.
+fn blobs(report: &EmbedReport) -> Vec<Vec<u8>> {
+    report
+        .masks
+        .iter()
+        .map(|m| std::fs::read(&m.blob_path).unwrap())
+        .collect()
+}
+
+fn statuses(report: &EmbedReport) -> Vec<CacheStatus> {
+    report.masks.iter().map(|m| m.cache.clone()).collect()
+}
+
+/// The blob each mask of `manifest` encodes to, straight from the generator.
+fn expected_blobs(manifest: &Manifest) -> Vec<Vec<u8>> {
+    manifest
+        .masks()
+        .iter()
+        .map(|m| {
+            let volume = stbn_gen::generate(&m.spec()).unwrap();
+            encode_volume(&volume, m.encoding, m.compression)
+        })
+        .collect()
+}
+
+fn cache_files(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
+}
+
+#[test]
+fn second_embed_is_a_hit_with_identical_bytes() {
+    let project = Project::new(MANIFEST);
+    let cache = project.path("cache");
+    let first = project.embed("out1", &cache);
+    assert_eq!(statuses(&first), vec![CacheStatus::Miss; 3]);
+    assert!(first.masks.iter().all(|m| m.stored));
+    assert!(first.warnings.is_empty(), "{:?}", first.warnings);
+    assert_eq!(blobs(&first), expected_blobs(&project.manifest()));
+    for (report, name) in first.masks.iter().zip(["a", "b", "c"]) {
+        assert_eq!(report.name, name);
+        assert_eq!(report.static_name, name.to_uppercase());
+        assert_eq!(
+            report.blob_path,
+            project.path("out1").join(format!("stbn/{name}.stbn"))
+        );
+        assert_eq!(
+            report.bytes,
+            std::fs::read(&report.blob_path).unwrap().len()
+        );
+    }
+    assert_eq!(cache_files(&cache).len(), 3);
+
+    // Another output directory (a clean build) with the same cache: nothing is generated.
+    let second = project.embed("out2", &cache);
+    assert_eq!(statuses(&second), vec![CacheStatus::Hit; 3]);
+    assert!(second.masks.iter().all(|m| !m.stored));
+    assert_eq!(blobs(&second), blobs(&first));
+
+    // The same output directory (an unchanged rebuild): hits, and files are left untouched.
+    let modified = |report: &EmbedReport| {
+        std::fs::metadata(&report.assets_rs)
+            .unwrap()
+            .modified()
+            .unwrap()
+    };
+    let before = modified(&second);
+    let third = project.embed("out2", &cache);
+    assert_eq!(statuses(&third), vec![CacheStatus::Hit; 3]);
+    assert_eq!(modified(&third), before);
+    assert_eq!(
+        std::fs::read_to_string(&third.assets_rs).unwrap(),
+        std::fs::read_to_string(&second.assets_rs).unwrap()
+    );
+}
+
+#[test]
+fn generated_module_declares_each_mask() {
+    let project = Project::new(MANIFEST);
+    let report = project.embed("out", &project.path("cache"));
+    assert_eq!(report.assets_rs, project.path("out/stbn_assets.rs"));
+    let code = std::fs::read_to_string(&report.assets_rs).unwrap();
+    for (name, ty) in [("A", "Stbn"), ("B", "PackedStbn"), ("C", "PackedStbn")] {
+        assert!(
+            code.contains(&format!(
+                "pub static {name}: ::stbn_runtime::{ty}<'static> =\n    match ::stbn_runtime::{ty}::from_bytes_unverified("
+            )),
+            "{code}"
+        );
+    }
+    let path = project.path("out/stbn/a.stbn");
+    assert!(code.contains(&format!(
+        "include_bytes_aligned!(64, {:?})",
+        path.to_str().unwrap()
+    )));
+    assert!(code.contains("/// `b`: Blue3D mask"));
+    assert!(code.contains("σ 1.5 pixels in space, 1.5 frames in time"));
+}
+
+/// The cache entry of mask `index` of the project's manifest.
+fn entry_path(project: &Project, cache: &Path, index: usize) -> PathBuf {
+    let manifest = project.manifest();
+    let mask = &manifest.masks()[index];
+    Cache::new(cache).entry_path(&CacheKey::new(
+        &mask.spec(),
+        mask.encoding,
+        mask.compression,
+    ))
+}
+
+#[test]
+fn invalid_cache_entries_are_detected_and_regenerated() {
+    let project = Project::new(MANIFEST);
+    let cache = project.path("cache");
+    let good = blobs(&project.embed("out", &cache));
+    let entries: Vec<PathBuf> = (0..3).map(|i| entry_path(&project, &cache, i)).collect();
+
+    // A flipped payload byte, a truncated file, and a valid blob of another mask.
+    let mut flipped = good[0].clone();
+    flipped[100] ^= 0x40;
+    std::fs::write(&entries[0], flipped).unwrap();
+    std::fs::write(&entries[1], &good[1][..70]).unwrap();
+    std::fs::write(&entries[2], &good[0]).unwrap();
+
+    let report = project.embed("out", &cache);
+    let reasons: Vec<String> = report
+        .masks
+        .iter()
+        .map(|m| match &m.cache {
+            CacheStatus::Invalid(reason) => reason.clone(),
+            other => panic!("{}: {other:?}", m.name),
+        })
+        .collect();
+    assert!(reasons[0].contains("checksum"), "{}", reasons[0]);
+    assert!(reasons[1].contains("truncated"), "{}", reasons[1]);
+    assert!(reasons[2].contains("expected 8x8x4"), "{}", reasons[2]);
+    assert_eq!(report.warnings.len(), 3);
+    for (warning, entry) in report.warnings.iter().zip(&entries) {
+        assert!(warning.contains("is invalid"), "{warning}");
+        assert!(warning.contains(&entry.display().to_string()), "{warning}");
+    }
+    assert!(report.masks.iter().all(|m| m.stored));
+    assert_eq!(blobs(&report), good);
+    for (entry, blob) in entries.iter().zip(&good) {
+        assert_eq!(
+            &std::fs::read(entry).unwrap(),
+            blob,
+            "entry was not overwritten"
+        );
+    }
+    assert_eq!(
+        statuses(&project.embed("out", &cache)),
+        vec![CacheStatus::Hit; 3]
+    );
+}
+
+#[test]
+fn concurrent_embeds_into_one_cache_both_succeed() {
+    let project = Arc::new(Project::new(MANIFEST));
+    let cache = project.path("cache");
+    let barrier = Arc::new(Barrier::new(2));
+    let threads: Vec<_> = ["out1", "out2"]
+        .into_iter()
+        .map(|out| {
+            let (project, barrier, cache) = (project.clone(), barrier.clone(), cache.clone());
+            std::thread::spawn(move || {
+                let config = project.config(out, &cache);
+                barrier.wait();
+                embed_with(&config)
+            })
+        })
+        .collect();
+    let reports: Vec<EmbedReport> = threads
+        .into_iter()
+        .map(|t| t.join().unwrap().unwrap())
+        .collect();
+    assert_eq!(blobs(&reports[0]), blobs(&reports[1]));
+    assert_eq!(blobs(&reports[0]), expected_blobs(&project.manifest()));
+    // Whole entries only: no temporary files left behind, and every entry verifies.
+    let names = cache_files(&cache);
+    assert_eq!(names.len(), 3, "{names:?}");
+    assert!(
+        names
+            .iter()
+            .all(|n| n.ends_with(".stbn") && !n.starts_with('.'))
+    );
+    assert_eq!(
+        statuses(&project.embed("out3", &cache)),
+        vec![CacheStatus::Hit; 3]
+    );
+}
+
+#[test]
+fn unwritable_cache_location_only_warns() {
+    let project = Project::new(MANIFEST);
+    // A directory cannot be created below a regular file, whoever runs the test.
+    std::fs::write(project.path("file"), "not a directory").unwrap();
+    let cache = project.path("file/cache");
+    let report = project.embed("out", &cache);
+    assert_eq!(statuses(&report), vec![CacheStatus::Miss; 3]);
+    assert!(report.masks.iter().all(|m| !m.stored));
+    assert_eq!(report.warnings.len(), 3, "{:?}", report.warnings);
+    assert!(
+        report.warnings[0].starts_with("mask \"a\": could not write cache entry"),
+        "{}",
+        report.warnings[0]
+    );
+    assert_eq!(blobs(&report), expected_blobs(&project.manifest()));
+}
+
+#[cfg(unix)]
+#[test]
+fn read_only_cache_dir_still_builds() {
+    use std::os::unix::fs::PermissionsExt;
+
+    let project = Project::new(MANIFEST);
+    let cache = project.path("cache");
+    std::fs::create_dir(&cache).unwrap();
+    std::fs::set_permissions(&cache, std::fs::Permissions::from_mode(0o555)).unwrap();
+    // Privileged users (root in containers) may write anyway; then the write simply succeeds.
+    let writable = std::fs::write(cache.join("probe"), b"").is_ok();
+    let _ = std::fs::remove_file(cache.join("probe"));
+
+    let result = embed_with(&project.config("out", &cache));
+    std::fs::set_permissions(&cache, std::fs::Permissions::from_mode(0o755)).unwrap();
+    let report = result.unwrap();
+    assert_eq!(blobs(&report), expected_blobs(&project.manifest()));
+    assert!(report.masks.iter().all(|m| m.stored == writable));
+    assert_eq!(
+        report.warnings.is_empty(),
+        writable,
+        "{:?}",
+        report.warnings
+    );
+}
+
+#[test]
+fn only_declared_masks_are_embedded() {
+    let project = Project::new(MANIFEST);
+    let cache = project.path("cache");
+    project.embed("out", &cache);
+    assert_eq!(
+        cache_files(&project.path("out/stbn")),
+        ["a.stbn", "b.stbn", "c.stbn"]
+    );
+
+    let only_c = MANIFEST
+        .lines()
+        .filter(|l| !l.contains("name: \"a\"") && !l.contains("name: \"b\""))
+        .collect::<Vec<_>>()
+        .join("\n");
+    std::fs::write(project.path("assets.ron"), only_c).unwrap();
+    let report = project.embed("out", &cache);
+    assert_eq!(statuses(&report), vec![CacheStatus::Hit]);
+    assert_eq!(cache_files(&project.path("out/stbn")), ["c.stbn"]);
+    let code = std::fs::read_to_string(&report.assets_rs).unwrap();
+    assert_eq!(code.matches("pub static").count(), 1);
+    assert!(code.contains("pub static C:"));
+}
+
+#[test]
+fn output_does_not_depend_on_manifest_order() {
+    let forward = Project::new(MANIFEST);
+    let mut lines: Vec<&str> = MANIFEST.lines().collect();
+    lines[2..5].reverse();
+    let backward = Project::new(&lines.join("\n"));
+    let a = forward.embed("out", &forward.path("cache"));
+    let b = backward.embed("out", &backward.path("cache"));
+    let mut blobs_b = blobs(&b);
+    blobs_b.reverse();
+    assert_eq!(blobs(&a), blobs_b);
+}
+
+#[test]
+fn manifest_problems_stop_the_embed() {
+    let project = Project::new("(masks: [(name: \"a\")])");
+    let err = embed_with(&project.config("out", &project.path("cache"))).unwrap_err();
+    let Error::Manifest(err) = err else {
+        panic!("{err:?}")
+    };
+    assert_eq!(err.field(), Some("kind"));
+
+    let missing = EmbedConfig {
+        manifest: project.path("nope.ron"),
+        ..project.config("out", &project.path("cache"))
+    };
+    let err = embed_with(&missing).unwrap_err();
+    assert!(matches!(err, Error::Io { .. }), "{err:?}");
+    assert!(
+        err.to_string().starts_with("could not read the manifest"),
+        "{err}"
+    );
+}

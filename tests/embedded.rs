@@ -1,0 +1,193 @@
+//! The statics that build.rs embedded from `assets.ron`, checked against the generator.
+
+use stbn_build_support::encode::{encode_payload, encode_volume};
+use stbn_build_support::{Manifest, MaskEntry};
+use stbn_demo::masks::{BLUE2D_64, SCALAR_64, SCALAR_64_LZ4};
+use stbn_gen::Volume;
+use stbn_runtime::{Compression, Encoding, PackedStbn, Stbn};
+
+/// The manifest entry `name` of the demo's `assets.ron`.
+fn entry(name: &str) -> MaskEntry {
+    let manifest = Manifest::load(concat!(env!("CARGO_MANIFEST_DIR"), "/assets.ron")).unwrap();
+    manifest
+        .masks()
+        .iter()
+        .find(|m| m.name == name)
+        .unwrap_or_else(|| panic!("assets.ron declares no mask {name:?}"))
+        .clone()
+}
+
+fn generate(name: &str) -> (MaskEntry, Volume) {
+    let entry = entry(name);
+    let volume = stbn_gen::generate(&entry.spec()).unwrap();
+    (entry, volume)
+}
+
+/// The complete blob a packed static was built from.
+fn blob_of(packed: &PackedStbn<'_>) -> Vec<u8> {
+    let mut blob = packed.header().to_bytes().to_vec();
+    blob.extend_from_slice(packed.payload());
+    blob
+}
+
+fn decode(packed: &PackedStbn<'_>) -> Vec<u8> {
+    let mut buffer = vec![0u8; packed.decoded_len()];
+    packed.decode_into(&mut buffer).unwrap();
+    buffer
+}
+
+#[test]
+fn scalar_64_matches_the_generator_at_every_voxel() {
+    let (entry, volume) = generate("scalar_64");
+    assert_eq!(
+        (entry.encoding, entry.compression),
+        (Encoding::Unorm8, Compression::None)
+    );
+    let blob = encode_volume(&volume, entry.encoding, entry.compression);
+    let expected = Stbn::from_bytes(&blob).unwrap();
+    assert_eq!(SCALAR_64.header(), expected.header());
+    assert_eq!(SCALAR_64.data(), expected.data());
+    let (w, h, d) = entry.size;
+    for z in 0..d {
+        for y in 0..h as i32 {
+            for x in 0..w as i32 {
+                assert_eq!(
+                    SCALAR_64.sample(x, y, z),
+                    expected.sample(x, y, z),
+                    "({x}, {y}, {z})"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn embedded_blobs_pass_full_validation() {
+    let mut plain = SCALAR_64.header().to_bytes().to_vec();
+    plain.extend_from_slice(SCALAR_64.data());
+    assert!(Stbn::from_bytes(&plain).is_ok());
+    for packed in [&SCALAR_64_LZ4, &BLUE2D_64] {
+        assert!(PackedStbn::from_bytes(&blob_of(packed)).is_ok());
+    }
+    assert_eq!(SCALAR_64_LZ4.header().compression, Compression::Lz4);
+    assert_eq!(BLUE2D_64.header().compression, Compression::Deflate);
+}
+
+#[test]
+fn every_frame_has_an_exactly_uniform_histogram() {
+    let (w, h, d) = (SCALAR_64.width(), SCALAR_64.height(), SCALAR_64.depth());
+    let pixels = (w * h) as usize;
+    assert_eq!((w, h, d), (64, 64, 32));
+    let mut frame = vec![0.0f32; pixels];
+    for z in 0..d {
+        assert_eq!(SCALAR_64.fill_frame(z, &mut frame), pixels);
+        let mut counts = [0usize; 256];
+        for &v in &frame {
+            // Unorm8 samples are bin midpoints (q + 0.5) / 256.
+            let q = v * 256.0 - 0.5;
+            assert_eq!(q, q.round(), "{v} is not a bin midpoint");
+            counts[q as usize] += 1;
+        }
+        // 4096 pixels over 256 levels: 16 of each.
+        assert!(
+            counts.iter().all(|&c| c == pixels / 256),
+            "frame {z}: {counts:?}"
+        );
+    }
+}
+
+#[test]
+fn sampling_wraps_on_every_axis() {
+    let (w, h, d) = (64i32, 64i32, 32u32);
+    for (x, y, z) in [(0, 0, 0), (5, 17, 3), (63, 63, 31), (31, 2, 30)] {
+        let v = SCALAR_64.sample(x, y, z);
+        assert_eq!(SCALAR_64.sample(x + w, y, z), v);
+        assert_eq!(SCALAR_64.sample(x - w, y - h, z), v);
+        assert_eq!(SCALAR_64.sample(x - 5 * w, y + 7 * h, z + 3 * d), v);
+        assert_eq!(SCALAR_64.sample(x, y, z + 1_000_000 * d), v);
+        // Large coordinates wrap as if computed in unbounded integers: 2^31 and 2^32 are
+        // multiples of 64 and 32.
+        assert_eq!(SCALAR_64.sample(x + i32::MIN, y + i32::MIN, z), v);
+        assert_eq!(
+            SCALAR_64.sample(i32::MAX - 63 + x, y, z + (u32::MAX - 31)),
+            v
+        );
+    }
+    assert_eq!(
+        SCALAR_64.sample(-1, -1, u32::MAX),
+        SCALAR_64.sample(63, 63, 31)
+    );
+    assert_eq!(
+        SCALAR_64.sample(i32::MAX, i32::MAX, 0),
+        SCALAR_64.sample(63, 63, 0)
+    );
+}
+
+#[test]
+fn lz4_mask_decodes_to_the_uncompressed_generation() {
+    let (entry, volume) = generate("scalar_64_lz4");
+    assert_eq!(
+        (entry.encoding, entry.compression),
+        (Encoding::Unorm16, Compression::Lz4)
+    );
+    let decoded = decode(&SCALAR_64_LZ4);
+    assert_eq!(decoded, encode_payload(&volume, Encoding::Unorm16));
+    let uncompressed = encode_volume(&volume, Encoding::Unorm16, Compression::None);
+    let expected = Stbn::from_bytes(&uncompressed).unwrap();
+    let mut buffer = vec![0u8; SCALAR_64_LZ4.decoded_len()];
+    let view = SCALAR_64_LZ4.decode_into(&mut buffer).unwrap();
+    assert_eq!(view.header(), expected.header());
+    for (x, y, z) in [(0, 0, 0), (-1, 70, 33), (12, 34, 5)] {
+        assert_eq!(view.sample(x, y, z), expected.sample(x, y, z));
+    }
+    // Same spec as SCALAR_64 at a finer quantisation: Unorm16 level 16·r vs Unorm8 level r/16.
+    for z in 0..32 {
+        for y in 0..64 {
+            for x in 0..64 {
+                let fine = view.sample(x, y, z);
+                let coarse = SCALAR_64.sample(x, y, z);
+                assert!((fine - coarse).abs() < 1.0 / 256.0, "({x}, {y}, {z})");
+            }
+        }
+    }
+}
+
+#[test]
+fn decode_into_respects_the_caller_buffer() {
+    let len = SCALAR_64_LZ4.decoded_len();
+    assert_eq!(len, 64 * 64 * 32 * 2);
+    let mut short = vec![0u8; len - 1];
+    assert!(SCALAR_64_LZ4.decode_into(&mut short).is_err());
+    let mut long = vec![0xAAu8; len + 16];
+    SCALAR_64_LZ4.decode_into(&mut long).unwrap();
+    assert!(long[len..].iter().all(|&b| b == 0xAA));
+    assert_eq!(&long[..len], decode(&SCALAR_64_LZ4));
+}
+
+#[test]
+fn blue2d_mask_is_the_independent_2d_generation_and_differs() {
+    let (entry, volume) = generate("blue2d_64");
+    assert_eq!(
+        (entry.encoding, entry.compression),
+        (Encoding::Unorm8, Compression::Deflate)
+    );
+    let decoded = decode(&BLUE2D_64);
+    assert_eq!(decoded, encode_payload(&volume, Encoding::Unorm8));
+    // Same size and seed as SCALAR_64 but another energy: most values differ.
+    let differing = decoded
+        .iter()
+        .zip(SCALAR_64.data())
+        .filter(|(a, b)| a != b)
+        .count();
+    assert!(
+        differing > decoded.len() * 9 / 10,
+        "only {differing} of {} differ",
+        decoded.len()
+    );
+    // Still an exact permutation per frame.
+    for frame in decoded.chunks(64 * 64) {
+        let mut counts = [0usize; 256];
+        frame.iter().for_each(|&q| counts[q as usize] += 1);
+        assert!(counts.iter().all(|&c| c == 16));
+    }
+}

@@ -1,0 +1,368 @@
+//! Every kind of manifest mistake is reported at the right line and column, naming the field.
+
+use stbn_build_support::{Error, Manifest, ManifestError};
+
+/// A valid manifest; each case below edits one of its lines.
+const BASE: &str = r#"(
+    masks: [
+        (
+            name: "first",
+            kind: Scalar,
+            size: (16, 16, 8),
+            seed: 1,
+            encoding: Unorm8,
+        ),
+        (
+            name: "foo",
+            sigma: 1.9,
+            kind: Blue2D,
+            size: (16, 16, 8),
+            seed: 2,
+            density: 0.1,
+            encoding: Unorm8,
+            compression: Lz4,
+        ),
+    ],
+)
+"#;
+
+/// `BASE` with 1-based line `line` replaced by `text`.
+fn edit(line: usize, text: &str) -> String {
+    let mut lines: Vec<&str> = BASE.lines().collect();
+    lines[line - 1] = text;
+    lines.join("\n") + "\n"
+}
+
+fn error(text: &str) -> ManifestError {
+    match Manifest::parse(text, "assets.ron") {
+        Ok(_) => panic!("accepted:\n{text}"),
+        Err(e) => e,
+    }
+}
+
+struct Case {
+    what: &'static str,
+    line: usize,
+    replacement: &'static str,
+    /// Expected line and column.
+    at: (usize, usize),
+    field: Option<&'static str>,
+    mask: Option<&'static str>,
+    message: &'static str,
+}
+
+const CASES: &[Case] = &[
+    Case {
+        what: "syntax error: missing comma",
+        line: 15,
+        replacement: "            seed: 2",
+        at: (15, 20),
+        field: Some("seed"),
+        mask: Some("foo"),
+        message: "expected `,` after this field's value",
+    },
+    Case {
+        what: "syntax error: stray character",
+        line: 6,
+        replacement: "            size: (16, 16; 8),",
+        at: (6, 26),
+        field: Some("size"),
+        mask: Some("first"),
+        message: "expected comma",
+    },
+    Case {
+        what: "unknown field",
+        line: 16,
+        replacement: "            dencity: 0.1,",
+        at: (16, 13),
+        field: Some("dencity"),
+        mask: Some("foo"),
+        message: "unknown field; expected one of `name`, `kind`, `size`, `seed`, `sigma`",
+    },
+    Case {
+        what: "unknown top-level field",
+        line: 2,
+        replacement: "    maskz: [",
+        at: (2, 5),
+        field: Some("maskz"),
+        mask: None,
+        message: "unknown field; expected one of `masks`",
+    },
+    Case {
+        what: "wrong type: string for integer",
+        line: 15,
+        replacement: "            seed: \"two\",",
+        at: (15, 19),
+        field: Some("seed"),
+        mask: Some("foo"),
+        message: "expected integer",
+    },
+    Case {
+        what: "wrong type: unknown kind",
+        line: 13,
+        replacement: "            kind: Scalr,",
+        at: (13, 19),
+        field: Some("kind"),
+        mask: Some("foo"),
+        message: "`Scalr`",
+    },
+    Case {
+        what: "wrong type: number for encoding",
+        line: 8,
+        replacement: "            encoding: 8,",
+        at: (8, 23),
+        field: Some("encoding"),
+        mask: Some("first"),
+        message: "expected one of `Unorm8`, `Unorm16`, `F32`",
+    },
+    Case {
+        what: "wrong type: two-element size",
+        line: 6,
+        replacement: "            size: (16, 16),",
+        at: (6, 26),
+        field: Some("size"),
+        mask: Some("first"),
+        message: "a tuple of size 3",
+    },
+    Case {
+        what: "axis beyond u32",
+        line: 14,
+        replacement: "            size: (16, 16, 5000000000),",
+        at: (14, 28),
+        field: Some("size"),
+        mask: Some("foo"),
+        message: "out of bounds",
+    },
+    Case {
+        what: "missing field",
+        line: 15,
+        replacement: "",
+        at: (19, 9),
+        field: Some("seed"),
+        mask: Some("foo"),
+        message: "missing; this field has no default",
+    },
+    Case {
+        what: "field given twice",
+        line: 16,
+        replacement: "            seed: 3,",
+        at: (16, 13),
+        field: Some("seed"),
+        mask: Some("foo"),
+        message: "given more than once",
+    },
+    Case {
+        what: "duplicate name",
+        line: 11,
+        replacement: "            name: \"first\",",
+        at: (11, 19),
+        field: Some("name"),
+        mask: Some("first"),
+        message: "duplicates mask \"first\" (line 4): both would become the static FIRST",
+    },
+    Case {
+        what: "duplicate name after upper-casing",
+        line: 11,
+        replacement: "            name: \"First\",",
+        at: (11, 19),
+        field: Some("name"),
+        mask: Some("First"),
+        message: "duplicates mask \"first\" (line 4)",
+    },
+    Case {
+        what: "name that is not an identifier",
+        line: 11,
+        replacement: "            name: \"3d-mask\",",
+        at: (11, 19),
+        field: Some("name"),
+        mask: Some("3d-mask"),
+        message: "\"3d-mask\" is not a Rust identifier",
+    },
+    Case {
+        what: "name that is a keyword",
+        line: 4,
+        replacement: "            name: \"type\",",
+        at: (4, 19),
+        field: Some("name"),
+        mask: Some("type"),
+        message: "\"type\" is a Rust keyword",
+    },
+    Case {
+        what: "zero size",
+        line: 14,
+        replacement: "            size: (16, 0, 8),",
+        at: (14, 19),
+        field: Some("size"),
+        mask: Some("foo"),
+        message: "height (second element) is 0; it must be in 1..=65536",
+    },
+    Case {
+        what: "huge size",
+        line: 6,
+        replacement: "            size: (65536, 65536, 64),",
+        at: (6, 19),
+        field: Some("size"),
+        mask: Some("first"),
+        message: "`size` 65536x65536x64 is too large: generating it would take about 5632.0 GiB; \
+                  the limits are 16777216 pixels per slice and 67108864 pixels per volume",
+    },
+    Case {
+        what: "NaN sigma",
+        line: 12,
+        replacement: "            sigma: NaN,",
+        at: (12, 20),
+        field: Some("sigma"),
+        mask: Some("foo"),
+        message: "must be finite and > 0 (got NaN)",
+    },
+    Case {
+        what: "infinite sigma",
+        line: 12,
+        replacement: "            sigma: inf,",
+        at: (12, 20),
+        field: Some("sigma"),
+        mask: Some("foo"),
+        message: "must be finite and > 0 (got inf)",
+    },
+    Case {
+        what: "negative sigma_time",
+        line: 16,
+        replacement: "            sigma_time: -2.0,",
+        at: (16, 25),
+        field: Some("sigma_time"),
+        mask: Some("foo"),
+        message: "must be finite and > 0 (got -2)",
+    },
+    Case {
+        what: "density above 0.5",
+        line: 16,
+        replacement: "            density: 0.7,",
+        at: (16, 22),
+        field: Some("density"),
+        mask: Some("foo"),
+        message: "must be in (0, 0.5] (got 0.7)",
+    },
+    Case {
+        what: "zero density",
+        line: 16,
+        replacement: "            density: 0.0,",
+        at: (16, 22),
+        field: Some("density"),
+        mask: Some("foo"),
+        message: "must be in (0, 0.5] (got 0)",
+    },
+    Case {
+        what: "kernel tolerance out of range",
+        line: 16,
+        replacement: "            kernel_tolerance: 0.0,",
+        at: (16, 31),
+        field: Some("kernel_tolerance"),
+        mask: Some("foo"),
+        message: "must be in (0, 1) (got 0)",
+    },
+];
+
+#[test]
+fn the_base_manifest_is_valid() {
+    let manifest = Manifest::parse(BASE, "assets.ron").unwrap();
+    let names: Vec<&str> = manifest.masks().iter().map(|m| m.name.as_str()).collect();
+    assert_eq!(names, ["first", "foo"]);
+}
+
+#[test]
+fn each_mistake_is_located_and_named() {
+    let mut failures = Vec::new();
+    for case in CASES {
+        let text = edit(case.line, case.replacement);
+        let err = error(&text);
+        let display = err.to_string();
+        let ok = (err.line(), err.column()) == case.at
+            && err.field() == case.field
+            && err.mask_name() == case.mask
+            && err.path().to_str() == Some("assets.ron")
+            && err.message().contains(case.message)
+            && display.starts_with(&format!("assets.ron:{}:{}: ", case.at.0, case.at.1))
+            && case
+                .field
+                .is_none_or(|f| display.contains(&format!("field `{f}`: ")));
+        if !ok {
+            failures.push(format!(
+                "{}: expected {:?} field {:?} mask {:?} message ~{:?}\n    got {display}",
+                case.what, case.at, case.field, case.mask, case.message
+            ));
+        }
+    }
+    assert!(failures.is_empty(), "\n{}", failures.join("\n"));
+}
+
+#[test]
+fn display_matches_the_documented_format() {
+    let err = error(&edit(12, "            sigma: NaN,"));
+    assert_eq!(
+        err.to_string(),
+        "assets.ron:12:20: mask \"foo\", field `sigma`: must be finite and > 0 (got NaN)"
+    );
+    assert_eq!(err.mask_index(), Some(1));
+}
+
+#[test]
+fn the_first_problem_in_document_order_is_reported() {
+    let text = edit(4, "            name: \"fn\",").replace("sigma: 1.9", "sigma: -1.0");
+    let err = error(&text);
+    assert_eq!((err.line(), err.field()), (4, Some("name")));
+}
+
+#[test]
+fn unclosed_manifest_reports_the_end() {
+    let text = BASE.trim_end().trim_end_matches(')');
+    let err = error(text);
+    assert_eq!(err.line(), 21);
+    assert!(err.mask_name().is_none());
+    assert!(err.to_string().starts_with("assets.ron:21:"), "{err}");
+}
+
+#[test]
+fn unnamed_masks_are_numbered() {
+    let err = error(&edit(11, ""));
+    assert_eq!(err.field(), Some("name"));
+    assert_eq!(err.mask_index(), Some(1));
+    assert!(
+        err.to_string()
+            .contains("mask #2 (unnamed), field `name`: missing"),
+        "{err}"
+    );
+}
+
+#[test]
+fn load_reports_the_file_path_and_io_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("assets.ron");
+    std::fs::write(&path, edit(16, "            density: 0.7,")).unwrap();
+    let Err(Error::Manifest(err)) = Manifest::load(&path) else {
+        panic!("expected a manifest error")
+    };
+    assert_eq!(err.path(), path);
+    assert!(
+        err.to_string()
+            .starts_with(&format!("{}:16:22: mask \"foo\"", path.display())),
+        "{err}"
+    );
+    let missing = Manifest::load(dir.path().join("missing.ron")).unwrap_err();
+    assert!(matches!(missing, Error::Io { .. }), "{missing:?}");
+}
+
+#[test]
+fn comments_and_struct_names_do_not_confuse_positions() {
+    let text = r#"#![enable(implicit_some)]
+// (masks: [ "not", "real" ])
+Manifest(
+    /* name: "decoy", sigma: NaN, */ masks: [
+        Mask(name: "x", kind: Blue3D, size: (8, 8, 8), seed: 0, encoding: F32),
+        Mask(name: "y", kind: Blue3D, size: (8, 8, 8), seed: 0, encoding: F32, density: 0.9),
+    ],
+)
+"#;
+    let err = error(text);
+    assert_eq!((err.line(), err.column()), (6, 89));
+    assert_eq!((err.mask_name(), err.field()), (Some("y"), Some("density")));
+}
