@@ -26,6 +26,11 @@ pub use spec::{EnergyTopology, MaskSpec, SpecError};
 pub use void_cluster::Progress;
 pub use volume::Volume;
 
+/// Version of the generator's output: bumped whenever [`generate`] can return a different
+/// [`Volume`] for an equal [`MaskSpec`] (an algorithm, tie-break, kernel or RNG change). Caches of
+/// generated masks include it in their keys; a test pins the output of a reference spec to it.
+pub const GENERATOR_VERSION: u32 = 1;
+
 /// Generates the scalar mask `spec` describes.
 ///
 /// Deterministic: equal specs give equal volumes on every machine and for every thread count.

@@ -164,15 +164,16 @@ impl<const TREES: usize> TapVisitor for Splat<'_, TREES> {
 }
 
 /// Seeded random permutation of `1..=n` (tie-break priorities) and the initial on pixels.
-fn seeded_start(spec: &MaskSpec) -> (Vec<u32>, Vec<usize>) {
+fn seeded_start(spec: &MaskSpec) -> (Vec<u32>, Vec<u32>) {
     let n = spec.pixels() as usize;
     let mut rng = ChaCha8Rng::seed_from_u64(spec.seed);
     let mut priorities: Vec<u32> = (1..=n as u32).collect();
     priorities.shuffle(&mut rng);
-    let mut order: Vec<usize> = (0..n).collect();
+    let mut order: Vec<u32> = (0..n as u32).collect();
     order.shuffle(&mut rng);
     let ones = ((spec.initial_density * n as f64).round() as usize).clamp(1, n);
     order.truncate(ones);
+    order.shrink_to_fit();
     (priorities, order)
 }
 
@@ -194,7 +195,7 @@ pub fn rank_pixels(spec: &MaskSpec, progress: &mut dyn FnMut(Progress)) -> Vec<u
 
     // Phase 1: initial pattern, then move clusters into voids until stable.
     for &i in &initial {
-        field.toggle(i, true, []);
+        field.toggle(i as usize, true, []);
     }
     let ones = initial.len();
     {
@@ -297,6 +298,34 @@ mod tests {
             .filter(|&i| !field.is_on(i))
             .min_by_key(|&i| field.keys().key(i));
         assert_eq!(best, scan);
+    }
+
+    /// FNV-1a over the ranks' little-endian bytes: a digest stable across Rust releases.
+    fn digest(ranks: &[u32]) -> u64 {
+        ranks
+            .iter()
+            .flat_map(|r| r.to_le_bytes())
+            .fold(0xcbf2_9ce4_8422_2325, |h, b| {
+                (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+            })
+    }
+
+    #[test]
+    fn output_is_pinned_to_the_generator_version() {
+        // If this fails, the generator's output changed: bump `GENERATOR_VERSION` (so caches
+        // regenerate) and record the new digest here.
+        let pinned: [(u32, u64); 1] = [(1, 0x6631_db07_e621_fb21)];
+        let ranks = rank_pixels(&MaskSpec::new(32, 32, 16, 2026), &mut |_| {});
+        let expected = pinned
+            .iter()
+            .find(|(version, _)| *version == crate::GENERATOR_VERSION)
+            .map(|&(_, digest)| digest);
+        assert_eq!(
+            Some(digest(&ranks)),
+            expected,
+            "digest {:#018x}",
+            digest(&ranks)
+        );
     }
 
     #[test]
