@@ -11,7 +11,7 @@
 //!             sigma: 1.9,             // optional, default 1.9
 //!             sigma_time: 1.9,        // optional, default = sigma
 //!             density: 0.1,           // optional, default 0.1, in (0, 0.5]
-//!             kernel_tolerance: 1e-3, // optional, default 1e-3, in (0, 1)
+//!             kernel_tolerance: 5e-3, // optional, default 5e-3, in (0, 1)
 //!             encoding: Unorm8,       // Unorm8 | Unorm16 | F32
 //!             compression: Lz4,       // optional: None (default) | Lz4 | Deflate
 //!         ),
