@@ -55,8 +55,8 @@ pub struct MaskSpec {
     pub topology: EnergyTopology,
     /// Kernel truncation: weights below `kernel_tolerance` (relative to the peak weight 1) are
     /// dropped. In `(0, 1)`. The default 5e-3 keeps offsets up to σ·√(2 ln 200) = 3.26σ (6.2
-    /// pixels at σ 1.9, like the reference SDK's radius 6); BENCHMARKS.md measures that 1e-3 and
-    /// 1e-4 cost 20–70% more time and change the low-band figures by under 3%.
+    /// pixels at σ 1.9, like the reference SDK's radius 6). BENCHMARKS.md measures 1e-3 and 1e-4
+    /// taking about a third more time for low-band figures within 1% of these.
     pub kernel_tolerance: f64,
 }
 
