@@ -271,6 +271,60 @@ mod tests {
         }
     }
 
+    fn assert_permutation(ranks: &[u32], what: &str) {
+        let mut sorted = ranks.to_vec();
+        sorted.sort_unstable();
+        assert!(
+            sorted.iter().enumerate().all(|(i, &r)| r as usize == i),
+            "{what}: ranks are not a permutation"
+        );
+    }
+
+    #[test]
+    fn degenerate_and_lopsided_shapes_rank_every_pixel() {
+        for (w, h, d) in [
+            (1, 37, 1),
+            (37, 1, 1),
+            (1, 1, 37),
+            (64, 64, 1),
+            (1024, 2, 2),
+            (2, 2, 512),
+            (3, 1, 200),
+        ] {
+            let spec = MaskSpec::new(w, h, d, 5);
+            assert_permutation(&rank_pixels(&spec, &mut |_| {}), &format!("{w}x{h}x{d}"));
+        }
+    }
+
+    #[test]
+    fn tiny_sigma_ties_have_no_directional_bias() {
+        // At σ 0.05 every off-pixel energy ties at zero, so the order is the tie-break alone. An
+        // index-order tie-break would rank pixels by position; the seeded permutation must not.
+        let (w, h, d) = (64u32, 64u32, 4u32);
+        let ranks = rank_pixels(&MaskSpec::new(w, h, d, 3).with_sigma(0.05), &mut |_| {});
+        let n = ranks.len() as f64;
+        let mean = |pick: &dyn Fn(usize) -> bool| {
+            let chosen: Vec<f64> = (0..ranks.len())
+                .filter(|&i| pick(i))
+                .map(|i| f64::from(ranks[i]) / n)
+                .collect();
+            chosen.iter().sum::<f64>() / chosen.len() as f64
+        };
+        let (w, h) = (w as usize, h as usize);
+        // Halves by x, by y and by frame all average rank ≈ 0.5 (σ of such a mean ≈ 0.004).
+        for (axis, pick) in [
+            (
+                "x",
+                Box::new(|i: usize| i % w < w / 2) as Box<dyn Fn(usize) -> bool>,
+            ),
+            ("y", Box::new(|i: usize| (i / w) % h < h / 2)),
+            ("frame", Box::new(|i: usize| i / (w * h) < 2)),
+        ] {
+            let m = mean(&*pick);
+            assert!((m - 0.5).abs() < 0.02, "{axis}: first half mean rank {m}");
+        }
+    }
+
     #[test]
     fn energy_bookkeeping_is_exact_after_many_toggles() {
         let spec = MaskSpec::new(24, 20, 12, 9);
