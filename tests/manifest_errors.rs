@@ -203,7 +203,7 @@ const CASES: &[Case] = &[
         at: (6, 19),
         field: Some("size"),
         mask: Some("first"),
-        message: "`size` 65536x65536x64 is too large: generating it would take about 5632.0 GiB; \
+        message: "`size` 65536x65536x64 is too large: generating it would take about 5120.0 GiB; \
                   the limits are 16777216 pixels per slice and 67108864 pixels per volume",
     },
     Case {
