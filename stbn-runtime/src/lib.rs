@@ -18,6 +18,8 @@
 //!
 //! # Features
 //! * `alloc` (off by default): `PackedStbn::decode` and `OwnedStbn`.
+//! * `wgpu` (off by default, implies `alloc` and uses `std`): the `gpu` module, which
+//!   uploads masks as wgpu textures and ships the WGSL sampling snippet `gpu::WGSL`.
 //!
 //! # Example
 //! ```
@@ -83,6 +85,8 @@
 extern crate alloc;
 
 mod error;
+#[cfg(feature = "wgpu")]
+pub mod gpu;
 mod header;
 mod packed;
 mod sampler;

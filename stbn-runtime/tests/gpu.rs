@@ -1,0 +1,651 @@
+//! GPU upload and the WGSL snippet (feature `wgpu`), on real adapters: Vulkan (lavapipe
+//! on a machine without a GPU) and GL (Mesa through EGL). A missing adapter fails the
+//! test: `scripts/test.sh` installs the CPU drivers when they are missing.
+
+mod common;
+
+use std::time::Instant;
+
+use common::{Rng, blob, header};
+use stbn_runtime::gpu::{self, GpuError, ShaderParams, TextureOptions};
+use stbn_runtime::{Encoding, SampleOffset, Stbn};
+use wgpu::util::DeviceExt;
+
+struct Gpu {
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    name: String,
+}
+
+/// Whether [`gpu`] asks for `TEXTURE_FORMAT_16BIT_NORM`.
+#[derive(Clone, Copy, PartialEq)]
+enum Norm16 {
+    /// Request it; the adapter must offer it.
+    Require,
+    /// Request it where the adapter offers it.
+    IfAvailable,
+    /// Do not request it (Unorm16 then uses the f32 fallback).
+    Off,
+}
+
+/// A device on the first adapter of `backends`, with the adapter's own limits and
+/// `TEXTURE_FORMAT_16BIT_NORM` as `norm16` says.
+fn gpu(backends: wgpu::Backends, norm16: Norm16) -> Gpu {
+    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
+        backends,
+        ..wgpu::InstanceDescriptor::new_without_display_handle()
+    });
+    let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+        power_preference: wgpu::PowerPreference::None,
+        compatible_surface: None,
+        ..Default::default()
+    }))
+    .unwrap_or_else(|e| {
+        panic!(
+            "no {backends:?} adapter ({e}). Without a GPU, install Mesa's CPU drivers: \
+             `apt-get install mesa-vulkan-drivers libvulkan1` for Vulkan (lavapipe); GL needs \
+             libegl1 and libgl1-mesa-dri. scripts/test.sh installs lavapipe when it is missing."
+        )
+    });
+    let info = adapter.get_info();
+    let norm16_feature = wgpu::Features::TEXTURE_FORMAT_16BIT_NORM;
+    let offered = adapter.features().contains(norm16_feature);
+    assert!(
+        offered || norm16 != Norm16::Require,
+        "{} lacks TEXTURE_FORMAT_16BIT_NORM",
+        info.name
+    );
+    let required_features = if offered && norm16 != Norm16::Off {
+        norm16_feature
+    } else {
+        wgpu::Features::empty()
+    };
+    let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+        label: Some("stbn test"),
+        required_features,
+        required_limits: adapter.limits(),
+        ..Default::default()
+    }))
+    .unwrap_or_else(|e| panic!("request_device on {}: {e}", info.name));
+    Gpu {
+        device,
+        queue,
+        name: format!("{} ({:?}, {})", info.name, info.backend, info.driver),
+    }
+}
+
+/// A mask of the given shape whose payload covers the extremes (0 and the largest
+/// code / value first) and is random after that. F32 values are multiples of 2^-24 in
+/// [0, 1), so none is subnormal.
+fn mask_blob(w: u32, h: u32, d: u32, channels: u8, encoding: Encoding, seed: u64) -> Vec<u8> {
+    let hd = header(w, h, d, channels, encoding);
+    let n = hd.decoded_len() / encoding.bytes_per_element();
+    let mut rng = Rng(seed);
+    let mut payload = Vec::with_capacity(hd.decoded_len());
+    for i in 0..n {
+        let r = rng.next_u32();
+        match encoding {
+            Encoding::Unorm8 => payload.push([0, u8::MAX].get(i).copied().unwrap_or(r as u8)),
+            Encoding::Unorm16 => payload.extend(
+                [0, u16::MAX]
+                    .get(i)
+                    .copied()
+                    .unwrap_or(r as u16)
+                    .to_le_bytes(),
+            ),
+            Encoding::F32 => {
+                let q = [0, (1 << 24) - 1].get(i).copied().unwrap_or(r >> 8);
+                payload.extend((q as f32 / (1u32 << 24) as f32).to_le_bytes());
+            }
+        }
+    }
+    blob(hd, &payload)
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Kind {
+    D3,
+    D2Array,
+}
+
+fn upload(g: &Gpu, mask: &Stbn<'_>, kind: Kind) -> wgpu::Texture {
+    let desc = TextureOptions {
+        label: Some("stbn mask"),
+        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC,
+    };
+    match kind {
+        Kind::D3 => gpu::create_texture_3d(&g.device, &g.queue, mask, desc),
+        Kind::D2Array => gpu::create_texture_2d_array(&g.device, &g.queue, mask, desc),
+    }
+    .unwrap_or_else(|e| panic!("upload on {}: {e}", g.name))
+}
+
+/// Waits for `buffer` to map and returns its contents.
+fn read_buffer(g: &Gpu, buffer: &wgpu::Buffer) -> Vec<u8> {
+    buffer.map_async(wgpu::MapMode::Read, .., |r| r.expect("map_async"));
+    g.device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .expect("poll");
+    let bytes = buffer.get_mapped_range(..).expect("mapped range").to_vec();
+    buffer.unmap();
+    bytes
+}
+
+/// The texture's texels, copied back through a buffer with rows padded to 256 bytes and
+/// returned tightly packed, frame by frame.
+fn read_texture(g: &Gpu, texture: &wgpu::Texture) -> Vec<u8> {
+    let size = texture.size();
+    let texel = texture
+        .format()
+        .block_copy_size(None)
+        .expect("plain format");
+    let row = size.width * texel;
+    let padded =
+        row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+    let buffer = g.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("read back"),
+        size: u64::from(padded) * u64::from(size.height) * u64::from(size.depth_or_array_layers),
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    });
+    let mut encoder = g.device.create_command_encoder(&Default::default());
+    encoder.copy_texture_to_buffer(
+        texture.as_image_copy(),
+        wgpu::TexelCopyBufferInfo {
+            buffer: &buffer,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(padded),
+                rows_per_image: Some(size.height),
+            },
+        },
+        size,
+    );
+    g.queue.submit([encoder.finish()]);
+    read_buffer(g, &buffer)
+        .chunks_exact(padded as usize)
+        .flat_map(|r| &r[..row as usize])
+        .copied()
+        .collect()
+}
+
+/// What the texture must hold, computed independently of the crate: the mask's elements,
+/// Unorm16 decoded to f32 when the device has no 16-bit norm formats, 3 channels padded
+/// with a zero fourth.
+fn expected_texels(mask: &Stbn<'_>, norm16: bool) -> Vec<u8> {
+    let channels = usize::from(mask.channels());
+    let bpe = mask.encoding().bytes_per_element();
+    let fallback = mask.encoding() == Encoding::Unorm16 && !norm16;
+    let mut out = Vec::new();
+    for voxel in mask.data().chunks_exact(channels * bpe) {
+        for c in 0..if channels == 3 { 4 } else { channels } {
+            let element = voxel.get(c * bpe..(c + 1) * bpe);
+            match (element, fallback) {
+                (Some(e), false) => out.extend_from_slice(e),
+                (Some(e), true) => {
+                    let q = f32::from(u16::from_le_bytes([e[0], e[1]]));
+                    out.extend(((q + 0.5) / 65536.0).to_le_bytes());
+                }
+                (None, _) => out.extend(std::iter::repeat_n(0, if fallback { 4 } else { bpe })),
+            }
+        }
+    }
+    out
+}
+
+/// One lookup: `(x, y, frame)`, a `SampleOffset` and an R2 dimension offset.
+#[derive(Clone, Copy, Debug)]
+struct Query {
+    x: i32,
+    y: i32,
+    frame: u32,
+    offset: SampleOffset,
+    dim: SampleOffset,
+}
+
+const QUERIES: usize = 4096;
+
+fn queries(mask: &Stbn<'_>, seed: u64) -> Vec<Query> {
+    let mut rng = Rng(seed);
+    let coord = |rng: &mut Rng| -> i32 {
+        let special = [i32::MIN, i32::MIN + 1, -1, 0, 1, i32::MAX - 1, i32::MAX, -7];
+        let r = rng.next_u32();
+        match r % 4 {
+            0 => special[(r >> 8) as usize % special.len()],
+            1 => (rng.next_u32() % 64) as i32 - 32,
+            _ => rng.next_u32() as i32,
+        }
+    };
+    let frame = |rng: &mut Rng| -> u32 {
+        let special = [0, 1, u32::MAX, u32::MAX - 1, 1 << 31, (1 << 31) - 1, 63];
+        let r = rng.next_u32();
+        match r % 3 {
+            0 => special[(r >> 8) as usize % special.len()],
+            1 => rng.next_u32() % 200,
+            _ => rng.next_u32(),
+        }
+    };
+    (0..QUERIES)
+        .map(|i| {
+            let (x, y, f) = (coord(&mut rng), coord(&mut rng), frame(&mut rng));
+            // Cycle through sample, sample_with, sample_dim and both offsets at once.
+            let offset = if i % 2 == 1 {
+                SampleOffset {
+                    x: coord(&mut rng),
+                    y: coord(&mut rng),
+                    frame: frame(&mut rng),
+                }
+            } else {
+                SampleOffset::ZERO
+            };
+            let dim = if i % 4 >= 2 {
+                mask.dimension_offset(rng.next_u32() % 1000)
+            } else {
+                SampleOffset::ZERO
+            };
+            Query {
+                x,
+                y,
+                frame: f,
+                offset,
+                dim,
+            }
+        })
+        .collect()
+}
+
+/// The CPU value of channel `c` for `q`: `sample_with` / `sample` / `sample_dim` for
+/// channel 0 as the query asks, `sample_channel` at the wrapped coordinate otherwise.
+fn cpu_value(mask: &Stbn<'_>, q: &Query, c: u32) -> f32 {
+    let (w, h, d) = (
+        i64::from(mask.width()),
+        i64::from(mask.height()),
+        i64::from(mask.depth()),
+    );
+    if c == 0 {
+        return match (q.offset == SampleOffset::ZERO, q.dim == SampleOffset::ZERO) {
+            (true, true) => mask.sample(q.x, q.y, q.frame),
+            (_, true) => mask.sample_with(q.x, q.y, q.frame, q.offset),
+            _ => {
+                let combined = SampleOffset {
+                    x: (i64::from(q.offset.x) + i64::from(q.dim.x)).rem_euclid(w) as i32,
+                    y: (i64::from(q.offset.y) + i64::from(q.dim.y)).rem_euclid(h) as i32,
+                    frame: q.offset.frame,
+                };
+                mask.sample_with(q.x, q.y, q.frame, combined)
+            }
+        };
+    }
+    let x = (i64::from(q.x) + i64::from(q.offset.x) + i64::from(q.dim.x)).rem_euclid(w);
+    let y = (i64::from(q.y) + i64::from(q.offset.y) + i64::from(q.dim.y)).rem_euclid(h);
+    let z = (i64::from(q.frame) + i64::from(q.offset.frame)).rem_euclid(d);
+    mask.sample_channel(x as i32, y as i32, z as u32, c)
+}
+
+/// A compute pipeline that runs the snippet's sampler for `kind` over a query buffer.
+struct Sampler {
+    layout: wgpu::BindGroupLayout,
+    pipeline: wgpu::ComputePipeline,
+    kind: Kind,
+}
+
+fn sampler(g: &Gpu, kind: Kind) -> Sampler {
+    let (texture_type, function, view_dimension) = match kind {
+        Kind::D3 => (
+            "texture_3d<f32>",
+            "stbn_sample_3d",
+            wgpu::TextureViewDimension::D3,
+        ),
+        Kind::D2Array => (
+            "texture_2d_array<f32>",
+            "stbn_sample_2d_array",
+            wgpu::TextureViewDimension::D2Array,
+        ),
+    };
+    let source = format!(
+        "{}
+struct Query {{ x: i32, y: i32, frame: u32, ox: i32, oy: i32, oframe: u32, dx: i32, dy: i32 }}
+@group(0) @binding(0) var mask: {texture_type};
+@group(0) @binding(1) var<uniform> params: StbnParams;
+@group(0) @binding(2) var<storage, read> queries: array<Query>;
+@group(0) @binding(3) var<storage, read_write> results: array<vec4<f32>>;
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {{
+    let i = id.x;
+    if i >= arrayLength(&queries) {{
+        return;
+    }}
+    let q = queries[i];
+    results[i] = {function}(mask, params, q.x, q.y, q.frame, vec2<i32>(q.ox, q.oy), q.oframe,
+        vec2<i32>(q.dx, q.dy));
+}}
+",
+        gpu::WGSL
+    );
+    let module = g.device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some("stbn test sampler"),
+        source: wgpu::ShaderSource::Wgsl(source.into()),
+    });
+    let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty,
+        count: None,
+    };
+    let storage = |read_only| wgpu::BindingType::Buffer {
+        ty: wgpu::BufferBindingType::Storage { read_only },
+        has_dynamic_offset: false,
+        min_binding_size: None,
+    };
+    let layout = g
+        .device
+        .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: None,
+            entries: &[
+                entry(
+                    0,
+                    wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                        view_dimension,
+                        multisampled: false,
+                    },
+                ),
+                entry(
+                    1,
+                    wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: false,
+                        min_binding_size: wgpu::BufferSize::new(ShaderParams::SIZE),
+                    },
+                ),
+                entry(2, storage(true)),
+                entry(3, storage(false)),
+            ],
+        });
+    let pipeline_layout = g
+        .device
+        .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: None,
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+    let pipeline = g
+        .device
+        .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("stbn test sampler"),
+            layout: Some(&pipeline_layout),
+            module: &module,
+            entry_point: Some("main"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+    Sampler {
+        layout,
+        pipeline,
+        kind,
+    }
+}
+
+/// Runs every query on the GPU; returns one `[f32; 4]` (all channels) per query.
+fn gpu_values(g: &Gpu, s: &Sampler, texture: &wgpu::Texture, qs: &[Query]) -> Vec<[f32; 4]> {
+    let words: Vec<u8> = qs
+        .iter()
+        .flat_map(|q| {
+            [
+                q.x as u32,
+                q.y as u32,
+                q.frame,
+                q.offset.x as u32,
+                q.offset.y as u32,
+                q.offset.frame,
+                q.dim.x as u32,
+                q.dim.y as u32,
+            ]
+        })
+        .flat_map(u32::to_le_bytes)
+        .collect();
+    let init = |label, contents: &[u8], usage| {
+        g.device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage,
+            })
+    };
+    let params = init(
+        "params",
+        &ShaderParams::for_texture(texture).to_bytes(),
+        wgpu::BufferUsages::UNIFORM,
+    );
+    let queries = init("queries", &words, wgpu::BufferUsages::STORAGE);
+    let out_size = (qs.len() * 16) as u64;
+    let results = g.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("results"),
+        size: out_size,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    let staging = g.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("staging"),
+        size: out_size,
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    });
+    let view = texture.create_view(&wgpu::TextureViewDescriptor {
+        dimension: Some(match s.kind {
+            Kind::D3 => wgpu::TextureViewDimension::D3,
+            Kind::D2Array => wgpu::TextureViewDimension::D2Array,
+        }),
+        ..Default::default()
+    });
+    let bind_group = g.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: None,
+        layout: &s.layout,
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: wgpu::BindingResource::TextureView(&view),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: params.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 2,
+                resource: queries.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 3,
+                resource: results.as_entire_binding(),
+            },
+        ],
+    });
+    let mut encoder = g.device.create_command_encoder(&Default::default());
+    {
+        let mut pass = encoder.begin_compute_pass(&Default::default());
+        pass.set_pipeline(&s.pipeline);
+        pass.set_bind_group(0, &bind_group, &[]);
+        pass.dispatch_workgroups((qs.len() as u32).div_ceil(64), 1, 1);
+    }
+    encoder.copy_buffer_to_buffer(&results, 0, &staging, 0, out_size);
+    g.queue.submit([encoder.finish()]);
+    read_buffer(g, &staging)
+        .chunks_exact(16)
+        .map(|v| {
+            let f = |i: usize| f32::from_le_bytes([v[i], v[i + 1], v[i + 2], v[i + 3]]);
+            [f(0), f(4), f(8), f(12)]
+        })
+        .collect()
+}
+
+/// Uploads masks of every encoding, channel count and kind (power-of-two and other
+/// sizes), checks the texels byte for byte and the WGSL sampler against the CPU bit for
+/// bit, for the given `encodings`. Unorm16 uses 16-bit norm formats where the device has
+/// them, the f32 fallback otherwise.
+fn check_backend(g: &Gpu, encodings: &[Encoding]) {
+    let norm16 = g
+        .device
+        .features()
+        .contains(wgpu::Features::TEXTURE_FORMAT_16BIT_NORM);
+    eprintln!("adapter: {}, 16-bit norm formats: {norm16}", g.name);
+    let samplers = [sampler(g, Kind::D3), sampler(g, Kind::D2Array)];
+    let mut seed = 1;
+    for &encoding in encodings {
+        for channels in 1..=4 {
+            for (w, h, d) in [(8, 4, 16), (7, 5, 3)] {
+                seed += 1;
+                let bytes = mask_blob(w, h, d, channels, encoding, seed);
+                let mask = Stbn::from_bytes(&bytes).expect("valid test mask");
+                let expected = expected_texels(&mask, norm16);
+                let qs = queries(&mask, seed);
+                for s in &samplers {
+                    let what = format!("{encoding:?} x{channels} {w}x{h}x{d} {:?}", s.kind);
+                    let texture = upload(g, &mask, s.kind);
+                    assert_eq!(
+                        texture.format(),
+                        gpu::texture_format(encoding, channels, g.device.features()),
+                        "{what}"
+                    );
+                    assert!(
+                        read_texture(g, &texture) == expected,
+                        "{what}: texels differ from the mask on {}",
+                        g.name
+                    );
+                    let got = gpu_values(g, s, &texture, &qs);
+                    for (q, v) in qs.iter().zip(&got) {
+                        for c in 0..u32::from(channels) {
+                            let cpu = cpu_value(&mask, q, c);
+                            assert_eq!(
+                                v[c as usize].to_bits(),
+                                cpu.to_bits(),
+                                "{what} channel {c} at {q:?} on {}: GPU {} CPU {cpu}",
+                                g.name,
+                                v[c as usize]
+                            );
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+const ALL: [Encoding; 3] = [Encoding::Unorm8, Encoding::Unorm16, Encoding::F32];
+
+#[test]
+fn vulkan_upload_and_wgsl_sampling_match_the_cpu() {
+    check_backend(&gpu(wgpu::Backends::VULKAN, Norm16::Require), &ALL);
+}
+
+#[test]
+fn vulkan_unorm16_without_16bit_norm_uses_the_f32_fallback() {
+    let g = gpu(wgpu::Backends::VULKAN, Norm16::Off);
+    assert_eq!(
+        gpu::texture_format(Encoding::Unorm16, 1, g.device.features()),
+        wgpu::TextureFormat::R32Float
+    );
+    check_backend(&g, &[Encoding::Unorm16]);
+}
+
+#[test]
+fn gl_upload_and_wgsl_sampling_match_the_cpu() {
+    check_backend(&gpu(wgpu::Backends::GL, Norm16::IfAvailable), &ALL);
+}
+
+/// A 20 MiB mask goes up in two `write_texture` chunks (32 frames of 512 KiB, then 8);
+/// every frame must land at its own depth / layer.
+#[test]
+fn large_masks_upload_in_chunks_to_the_right_frames() {
+    let g = gpu(wgpu::Backends::VULKAN, Norm16::Off);
+    let bytes = mask_blob(1024, 512, 40, 1, Encoding::Unorm8, 5);
+    let mask = Stbn::from_bytes(&bytes).expect("valid test mask");
+    for kind in [Kind::D3, Kind::D2Array] {
+        let texture = upload(&g, &mask, kind);
+        assert!(
+            read_texture(&g, &texture) == mask.data(),
+            "{kind:?}: texels differ from the mask"
+        );
+    }
+}
+
+#[test]
+fn oversized_masks_are_rejected_before_any_upload() {
+    let g = gpu(wgpu::Backends::VULKAN, Norm16::Off);
+    let limits = g.device.limits();
+    let wide = mask_blob(
+        limits.max_texture_dimension_3d + 1,
+        1,
+        1,
+        1,
+        Encoding::Unorm8,
+        1,
+    );
+    let wide = Stbn::from_bytes(&wide).expect("valid test mask");
+    assert_eq!(
+        gpu::create_texture_3d(&g.device, &g.queue, &wide, TextureOptions::default()).err(),
+        Some(GpuError::TooLarge {
+            axis: "width",
+            size: limits.max_texture_dimension_3d + 1,
+            limit: limits.max_texture_dimension_3d,
+        })
+    );
+    let deep = mask_blob(
+        1,
+        1,
+        limits.max_texture_array_layers + 1,
+        1,
+        Encoding::Unorm8,
+        1,
+    );
+    let deep = Stbn::from_bytes(&deep).expect("valid test mask");
+    assert_eq!(
+        gpu::create_texture_2d_array(&g.device, &g.queue, &deep, TextureOptions::default()).err(),
+        Some(GpuError::TooLarge {
+            axis: "depth",
+            size: limits.max_texture_array_layers + 1,
+            limit: limits.max_texture_array_layers,
+        })
+    );
+}
+
+#[test]
+fn shader_params_layout_matches_the_wgsl_struct() {
+    let p = ShaderParams {
+        size: [7, 5, 3],
+        decode: ShaderParams::DECODE_UNORM16,
+    };
+    let b = p.to_bytes();
+    assert_eq!(b.len() as u64, ShaderParams::SIZE);
+    assert_eq!(b, [7, 0, 0, 0, 5, 0, 0, 0, 3, 0, 0, 0, 2, 0, 0, 0]);
+}
+
+/// Upload throughput of a 128×128×64 mask per encoding, printed (not asserted: it
+/// depends on the machine). `cargo test -p stbn-runtime --features wgpu --release
+/// --test gpu -- --ignored --nocapture upload_throughput`.
+#[test]
+#[ignore = "timing report, run by hand"]
+fn upload_throughput() {
+    let g = gpu(wgpu::Backends::VULKAN, Norm16::Require);
+    for encoding in ALL {
+        let bytes = mask_blob(128, 128, 64, 1, encoding, 9);
+        let mask = Stbn::from_bytes(&bytes).expect("valid test mask");
+        for kind in [Kind::D3, Kind::D2Array] {
+            let start = Instant::now();
+            let texture = upload(&g, &mask, kind);
+            g.queue.submit([]);
+            g.device
+                .poll(wgpu::PollType::wait_indefinitely())
+                .expect("poll");
+            let s = start.elapsed().as_secs_f64();
+            eprintln!(
+                "{}: {encoding:?} {kind:?} 128x128x64 ({} KiB): {:.2} ms, {:.0} MiB/s",
+                g.name,
+                mask.data().len() / 1024,
+                s * 1e3,
+                mask.data().len() as f64 / s / (1 << 20) as f64
+            );
+            drop(texture);
+        }
+    }
+}
