@@ -4,8 +4,6 @@
 
 mod common;
 
-use std::time::Instant;
-
 use common::{Rng, blob, header};
 use stbn_runtime::gpu::{self, GpuError, ShaderParams, TextureOptions};
 use stbn_runtime::{Encoding, SampleOffset, Stbn};
@@ -618,34 +616,4 @@ fn shader_params_layout_matches_the_wgsl_struct() {
     let b = p.to_bytes();
     assert_eq!(b.len() as u64, ShaderParams::SIZE);
     assert_eq!(b, [7, 0, 0, 0, 5, 0, 0, 0, 3, 0, 0, 0, 2, 0, 0, 0]);
-}
-
-/// Upload throughput of a 128×128×64 mask per encoding, printed (not asserted: it
-/// depends on the machine). `cargo test -p stbn-runtime --features wgpu --release
-/// --test gpu -- --ignored --nocapture upload_throughput`.
-#[test]
-#[ignore = "timing report, run by hand"]
-fn upload_throughput() {
-    let g = gpu(wgpu::Backends::VULKAN, Norm16::Require);
-    for encoding in ALL {
-        let bytes = mask_blob(128, 128, 64, 1, encoding, 9);
-        let mask = Stbn::from_bytes(&bytes).expect("valid test mask");
-        for kind in [Kind::D3, Kind::D2Array] {
-            let start = Instant::now();
-            let texture = upload(&g, &mask, kind);
-            g.queue.submit([]);
-            g.device
-                .poll(wgpu::PollType::wait_indefinitely())
-                .expect("poll");
-            let s = start.elapsed().as_secs_f64();
-            eprintln!(
-                "{}: {encoding:?} {kind:?} 128x128x64 ({} KiB): {:.2} ms, {:.0} MiB/s",
-                g.name,
-                mask.data().len() / 1024,
-                s * 1e3,
-                mask.data().len() as f64 / s / (1 << 20) as f64
-            );
-            drop(texture);
-        }
-    }
 }
