@@ -37,6 +37,19 @@
 //! to their lowest non-zero frequency (`|ft| = 1` for `depth < 8`), so the band is empty only when
 //! there is no non-zero frequency at all: a `1 × 1` slice, or `depth == 1`. The low-band measures
 //! then return `None`.
+//!
+//! # Filtered error and convergence
+//!
+//! [`filtered_error()`] (EA's FAST metric: thresholded frames after a spatial Gaussian and an
+//! exponential moving average, module [`filtered`]) and [`convergence()`] (per-pixel integration
+//! error over the frames, Monte Carlo and EMA, module [`mod@convergence`]) measure what a renderer
+//! sees rather than a spectrum.
+
+pub mod convergence;
+pub mod filtered;
+
+pub use convergence::{Convergence, ConvergenceOptions, Integrand, convergence};
+pub use filtered::{FilteredErrorOptions, filtered_error, gaussian_weights};
 
 use std::fmt;
 

@@ -14,6 +14,7 @@
 //! ```
 
 pub mod analysis;
+pub mod baselines;
 pub mod export;
 mod extremum;
 pub mod kernel;

@@ -1,5 +1,5 @@
 //! Void-and-cluster (Ulichney 1993) over a 3D volume with the energy of an
-//! [`EnergyKernel`](crate::kernel::EnergyKernel): the scalar STBN generator of the paper's §4.1.
+//! [`EnergyKernel`]: the scalar STBN generator of the paper's §4.1.
 //!
 //! The three phases, as in the paper:
 //! 1. A random initial pattern of `initial_density · N` on pixels; repeatedly move the tightest

@@ -1,0 +1,223 @@
+//! Convergence of per-pixel integration (Wolfe et al. 2022, Fig. 4): each pixel estimates
+//! `I = ∫₀¹ f(x) dx` from the mask values it sees over the frames as samples.
+//!
+//! Pixel `p` at sample `k ≥ 0` reads frame `zₖ = (start + k) mod depth` (toroidal
+//! progressiveness: a sequence may start at any frame, and runs longer than `depth` wrap), so its
+//! samples are `xₖ(p) = v(p, zₖ)`. Two estimators:
+//!
+//! ```text
+//! Monte Carlo:  mₖ = (1 / (k + 1)) · Σⱼ₌₀..ₖ f(xⱼ)
+//! EMA:          e₀ = f(x₀),   eₖ = α · f(xₖ) + (1 − α) · eₖ₋₁
+//! ```
+//!
+//! and the error after `k + 1` samples is the root-mean-square over the `W·H` pixels,
+//! `RMSE(k) = √( Σₚ (estimateₖ(p) − I)² / (W·H) )`, in the units of `f` (all integrands here are
+//! dimensionless). White noise gives `σ_f / √(k + 1)` for Monte Carlo; a mask that is blue over
+//! time converges faster. The EMA never converges (its error plateaus at about
+//! `σ_f · √(α / (2 − α))` for white noise) but a blue-over-time mask lowers the plateau.
+
+use rayon::prelude::*;
+
+use super::Field;
+
+/// A 1D integrand on `[0, 1)` with a known integral.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Integrand {
+    /// `f(x) = x`, `∫₀¹ f = 1/2`. Smooth: the easy case.
+    Ramp,
+    /// `f(x) = 1 if x < 1/2 else 0`, `∫₀¹ f = 1/2`. A discontinuity, like a shadow edge.
+    Step,
+    /// `f(x) = sin(πx)`, `∫₀¹ f = 2/π`. Smooth and not monotonic: samples near 0 and near 1
+    /// give the same value.
+    Sine,
+}
+
+impl Integrand {
+    /// Every integrand, in report order.
+    pub const ALL: [Integrand; 3] = [Integrand::Ramp, Integrand::Step, Integrand::Sine];
+
+    /// `f(x)`.
+    pub fn eval(self, x: f64) -> f64 {
+        match self {
+            Integrand::Ramp => x,
+            Integrand::Step => {
+                if x < 0.5 {
+                    1.0
+                } else {
+                    0.0
+                }
+            }
+            Integrand::Sine => (std::f64::consts::PI * x).sin(),
+        }
+    }
+
+    /// The exact `∫₀¹ f(x) dx`.
+    pub fn integral(self) -> f64 {
+        match self {
+            Integrand::Ramp | Integrand::Step => 0.5,
+            Integrand::Sine => 2.0 / std::f64::consts::PI,
+        }
+    }
+
+    /// A lower-case name: `ramp`, `step` or `sine`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Integrand::Ramp => "ramp",
+            Integrand::Step => "step",
+            Integrand::Sine => "sine",
+        }
+    }
+}
+
+/// The parameters of [`convergence`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ConvergenceOptions {
+    /// Number of samples per pixel, `≥ 1`; more than `depth` wraps around the frames.
+    pub samples: usize,
+    /// Frame of the first sample (reduced modulo `depth`).
+    pub start: usize,
+    /// EMA weight of the newest sample, in `(0, 1]`. The paper: 0.1.
+    pub alpha: f64,
+}
+
+impl ConvergenceOptions {
+    /// `samples` samples from frame 0 with α = 0.1.
+    pub fn new(samples: usize) -> ConvergenceOptions {
+        ConvergenceOptions {
+            samples,
+            start: 0,
+            alpha: 0.1,
+        }
+    }
+
+    /// Starts at frame `start` instead.
+    pub fn starting_at(self, start: usize) -> ConvergenceOptions {
+        ConvergenceOptions { start, ..self }
+    }
+}
+
+/// The error curves of [`convergence`]: entry `k` is the RMSE after `k + 1` samples.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Convergence {
+    /// Monte Carlo running mean.
+    pub monte_carlo: Vec<f64>,
+    /// Exponential moving average.
+    pub ema: Vec<f64>,
+}
+
+/// The RMSE over pixels of both estimators of `integrand` after each sample ([module
+/// docs](self)).
+///
+/// Deterministic for any thread count (pixel chunks are summed in order). Panics if
+/// `samples == 0` or `alpha ∉ (0, 1]`.
+pub fn convergence(
+    field: &Field,
+    integrand: Integrand,
+    options: ConvergenceOptions,
+) -> Convergence {
+    /// Pixels per parallel task.
+    const CHUNK: usize = 1024;
+    let ConvergenceOptions {
+        samples,
+        start,
+        alpha,
+    } = options;
+    assert!(samples > 0, "at least one sample");
+    assert!(
+        alpha > 0.0 && alpha <= 1.0,
+        "alpha {alpha} must be in (0, 1]"
+    );
+    let (n, depth) = (field.slice_pixels(), field.depth());
+    let exact = integrand.integral();
+    let starts: Vec<usize> = (0..n).step_by(CHUNK).collect();
+    let parts: Vec<Vec<f64>> = starts
+        .into_par_iter()
+        .map(|first| {
+            let pixels = first..(first + CHUNK).min(n);
+            let mut mean = vec![0.0; pixels.len()];
+            let mut ema = vec![0.0; pixels.len()];
+            // Squared errors: Monte Carlo in 0..samples, EMA in samples..2·samples.
+            let mut squares = vec![0.0; 2 * samples];
+            for k in 0..samples {
+                let slice = &field.slice((start + k) % depth)[pixels.clone()];
+                let weight = 1.0 / (k + 1) as f64;
+                let (mut mc, mut exp) = (0.0, 0.0);
+                for ((m, e), &x) in mean.iter_mut().zip(&mut ema).zip(slice) {
+                    let f = integrand.eval(x);
+                    *m += (f - *m) * weight;
+                    *e = if k == 0 {
+                        f
+                    } else {
+                        alpha * f + (1.0 - alpha) * *e
+                    };
+                    mc += (*m - exact) * (*m - exact);
+                    exp += (*e - exact) * (*e - exact);
+                }
+                squares[k] = mc;
+                squares[samples + k] = exp;
+            }
+            squares
+        })
+        .collect();
+    let mut total = vec![0.0; 2 * samples];
+    for part in &parts {
+        total.iter_mut().zip(part).for_each(|(t, p)| *t += p);
+    }
+    let rmse: Vec<f64> = total.iter().map(|s| (s / n as f64).sqrt()).collect();
+    Convergence {
+        monte_carlo: rmse[..samples].to_vec(),
+        ema: rmse[samples..].to_vec(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn integrals_match_a_midpoint_rule() {
+        for integrand in Integrand::ALL {
+            let n = 1 << 16;
+            let sum: f64 = (0..n)
+                .map(|i| integrand.eval((i as f64 + 0.5) / n as f64))
+                .sum();
+            let estimate = sum / n as f64;
+            assert!(
+                (estimate - integrand.integral()).abs() < 1e-6,
+                "{}: {estimate}",
+                integrand.name()
+            );
+        }
+    }
+
+    #[test]
+    fn stratified_sequences_have_exact_errors() {
+        // One pixel, 4 frames with values 0.125, 0.625, 0.375, 0.875 (a stratified sequence).
+        let values = [0.125, 0.625, 0.375, 0.875];
+        let field = Field::new(1, 1, 4, &values).unwrap();
+        let curve = convergence(&field, Integrand::Ramp, ConvergenceOptions::new(4));
+        // Running means 0.125, 0.375, 0.375, 0.5: errors 0.375, 0.125, 0.125, 0.
+        assert_eq!(curve.monte_carlo, vec![0.375, 0.125, 0.125, 0.0]);
+        // EMA with α = 0.1: 0.125, 0.175, 0.195, 0.263.
+        let mut e = 0.125;
+        let mut expected = vec![0.375];
+        for &x in &values[1..] {
+            e = 0.1 * x + 0.9 * e;
+            expected.push((e - 0.5f64).abs());
+        }
+        for (a, b) in curve.ema.iter().zip(&expected) {
+            assert!((a - b).abs() < 1e-15, "{a} vs {b}");
+        }
+        // Starting at frame 3 and wrapping: 0.875, 0.125, 0.625, 0.375 → means 0.875, 0.5, …
+        let shifted = convergence(
+            &field,
+            Integrand::Step,
+            ConvergenceOptions::new(5).starting_at(3),
+        );
+        // Step values 0, 1, 0, 1, 0: means 0, 0.5, 1/3, 0.5, 0.4.
+        let means = [0.0, 0.5, 1.0 / 3.0, 0.5, 0.4];
+        for (a, m) in shifted.monte_carlo.iter().zip(means) {
+            assert!((a - (m - 0.5f64).abs()).abs() < 1e-15);
+        }
+    }
+}
