@@ -1,15 +1,19 @@
-//! `stbn-gen analyze`: the report for folders of PNG slices.
+//! `stbn-gen analyze`: the report for folders of PNG slices, optionally beside baseline fields.
 
 use std::path::{Path, PathBuf};
 
+use stbn_gen::analysis::Field;
+use stbn_gen::baselines::comparison;
 use stbn_gen::export::read_slices_png;
 
 use crate::Result;
 use crate::report::{self, Row};
 
 /// Reads every folder of `<name>_<z>.png` slices in `dirs`, prints a summary line per mask and
-/// writes `<out>/report.md`.
-pub fn run(dirs: &[PathBuf], out: &Path) -> Result<()> {
+/// writes `<out>/report.md`. With `baseline_seed`, also measures the baselines of [`comparison`]
+/// (white noise, golden-ratio and random-shift animated 2D blue noise, from that seed) at each
+/// distinct size of the analysed masks, as extra rows named `<baseline>_<w>x<h>x<d>`.
+pub fn run(dirs: &[PathBuf], out: &Path, baseline_seed: Option<u64>) -> Result<()> {
     let mut rows = Vec::with_capacity(dirs.len());
     for dir in dirs {
         let stack = read_slices_png(dir)?;
@@ -22,8 +26,82 @@ pub fn run(dirs: &[PathBuf], out: &Path) -> Result<()> {
         .iter()
         .map(|dir| format!("`{}`", dir.display()))
         .collect();
-    let intro = format!("PNG slices analysed from {}.", folders.join(", "));
+    let mut intro = format!("PNG slices analysed from {}.", folders.join(", "));
+    if let Some(seed) = baseline_seed {
+        let mut sizes: Vec<(usize, usize, usize)> = rows.iter().map(|row| row.size).collect();
+        sizes.sort_unstable();
+        sizes.dedup();
+        for (w, h, d) in sizes {
+            let too_large = || format!("no baselines at {w}x{h}x{d}: too large");
+            let axis = |n: usize| u32::try_from(n).map_err(|_| too_large());
+            let set = comparison(axis(w)?, axis(h)?, axis(d)?, seed)
+                .map_err(|e| format!("baselines at {w}x{h}x{d}: {e}"))?;
+            for baseline in set {
+                let field =
+                    Field::new(w, h, d, &baseline.values).expect("baselines are valid fields");
+                let name = format!("{}_{w}x{h}x{d}", baseline.name);
+                let row = Row::measure(&name, baseline.kind, None, &field);
+                println!("{}", row.summary());
+                rows.push(row);
+            }
+        }
+        intro.push_str(&format!(
+            " Baselines (seed {seed}) at the same sizes: white noise; one 2D blue-noise slice \
+             animated by the golden ratio, fract(v + frame·φ⁻¹); the same slice shifted by a \
+             random offset per frame, fract(v + r_frame)."
+        ));
+    }
     let path = report::write(out, &intro, &rows)?;
     println!("report: {}", path.display());
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use std::fs;
+
+    use stbn_gen::export::{PngDepth, write_slices_png};
+    use stbn_gen::{EnergyTopology, MaskSpec};
+
+    use super::*;
+
+    #[test]
+    fn baselines_appear_beside_the_analysed_masks() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut folders = Vec::new();
+        for (name, topology) in [
+            ("stbn", EnergyTopology::Spatiotemporal),
+            ("blue2d", EnergyTopology::Independent2D),
+        ] {
+            let spec = MaskSpec::new(16, 16, 8, 1).with_topology(topology);
+            let values = stbn_gen::generate(&spec).unwrap().values();
+            let field = Field::new(16, 16, 8, &values).unwrap();
+            write_slices_png(&field, dir.path(), name, PngDepth::Eight).unwrap();
+            folders.push(dir.path().join(name));
+        }
+        let out = dir.path().join("report");
+        run(&folders, &out, Some(3)).unwrap();
+        let text = fs::read_to_string(out.join("report.md")).unwrap();
+        let names: Vec<&str> = text
+            .lines()
+            .filter_map(|l| l.strip_prefix("| ")?.split(" |").next())
+            .collect();
+        assert_eq!(
+            names,
+            [
+                "mask",
+                "stbn",
+                "blue2d",
+                "white_noise_16x16x8",
+                "golden_ratio_2d_16x16x8",
+                "random_shift_2d_16x16x8"
+            ],
+            "{text}"
+        );
+        assert!(text.contains("Baselines (seed 3)"));
+        // Without a seed: the masks alone.
+        run(&folders, &out, None).unwrap();
+        let text = fs::read_to_string(out.join("report.md")).unwrap();
+        assert!(!text.contains("white_noise"));
+    }
 }

@@ -1,14 +1,17 @@
-//! `stbn-gen`: generate the masks of an `assets.ron` manifest as PNG slices, or analyse folders of
-//! PNG slices, and write a quality report (`report.md`) for either.
+//! `stbn-gen`: generate the masks of an `assets.ron` manifest as PNG slices or KTX2 textures, or
+//! analyse folders of PNG slices, and write a quality report (`report.md`) for either.
 
 mod analyze;
 mod generate;
+mod ktx2;
 mod report;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
+
+use crate::generate::OutputFormat;
 
 /// What every command returns: errors are printed with their `Display` and end the process with
 /// status 1.
@@ -23,15 +26,20 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Generate every mask of a manifest: PNG slices in `<OUT>/<name>/` and `<OUT>/report.md`.
+    /// Generate every mask of a manifest: PNG slices in `<OUT>/<name>/` (or `<OUT>/<name>.ktx2`
+    /// with `--format ktx2`) and `<OUT>/report.md`.
     ///
-    /// Slices are 8-bit for `Unorm8` masks and 16-bit otherwise.
+    /// Slices are 8-bit for `Unorm8` masks and 16-bit otherwise. KTX2 files are 3D textures
+    /// (depth = frames) in the mask's own encoding: R8_UNORM, R16_UNORM or R32_SFLOAT.
     Generate {
         /// The `assets.ron` manifest.
         manifest: PathBuf,
         /// Output folder (created if needed).
         #[arg(long)]
         out: PathBuf,
+        /// Output format of the masks.
+        #[arg(long, value_enum, default_value_t = OutputFormat::Png)]
+        format: OutputFormat,
     },
     /// Analyse folders of `<name>_<z>.png` slices (from `generate` or elsewhere) and write
     /// `<OUT>/report.md`.
@@ -42,13 +50,25 @@ enum Command {
         /// Folder for report.md (created if needed).
         #[arg(long)]
         out: PathBuf,
+        /// Also measure white noise, golden-ratio animated and random-shift animated 2D blue
+        /// noise (generated from this seed) at each mask size, side by side.
+        #[arg(long, value_name = "SEED")]
+        baselines: Option<u64>,
     },
 }
 
 fn main() -> ExitCode {
     let result = match Cli::parse().command {
-        Command::Generate { manifest, out } => generate::run(&manifest, &out),
-        Command::Analyze { dirs, out } => analyze::run(&dirs, &out),
+        Command::Generate {
+            manifest,
+            out,
+            format,
+        } => generate::run(&manifest, &out, format),
+        Command::Analyze {
+            dirs,
+            out,
+            baselines,
+        } => analyze::run(&dirs, &out, baselines),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,25 +1,40 @@
-//! The quality figures of one mask ([`Row`]) and the `report.md` table of several.
+//! The quality figures of one mask ([`Row`]) and the `report.md` of several: a table, the
+//! convergence figures of every integrand, and PNG plots in `plots/`.
+
+mod plots;
 
 use std::fmt::Write as _;
 use std::fs;
 use std::path::{Path, PathBuf};
 
-use stbn_gen::analysis::{Field, slice_histogram_deviation, spatial_low_band, temporal_low_band};
+use stbn_gen::analysis::{
+    Convergence, ConvergenceOptions, Field, FilteredErrorOptions, Integrand, convergence,
+    filtered_error, radial_spectrum, slice_histogram_deviation, spatial_low_band,
+    temporal_low_band, temporal_spectrum,
+};
 
 use crate::Result;
+use plots::{Axis, PALETTE, Plot};
+use plotters::chart::SeriesLabelPosition;
 
 /// Bins of the histogram-deviation column. 16 divides every power-of-two slice size from 16
 /// pixels up and the 256 levels of 8-bit PNGs, so exactly uniform slices measure exactly 0.
 pub const HISTOGRAM_BINS: usize = 16;
 
-/// One mask's line of the report.
+/// Samples per pixel of the convergence curves; masks with fewer frames wrap around.
+pub const CONVERGENCE_SAMPLES: usize = 64;
+
+/// The sample counts the tables report convergence at.
+pub const CONVERGENCE_AT: [usize; 4] = [1, 4, 16, 64];
+
+/// One mask's figures and curves.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Row {
     /// The mask's name.
     pub name: String,
     /// `(width, height, frames)`.
     pub size: (usize, usize, usize),
-    /// How it was made: a generator topology, or `png N-bit` for analysed slices.
+    /// How it was made: a generator topology, `png N-bit` for analysed slices, or a baseline.
     pub kind: String,
     /// Generation wall-clock time in seconds; `None` for analysed slices.
     pub seconds: Option<f64>,
@@ -29,6 +44,18 @@ pub struct Row {
     pub temporal: Option<f64>,
     /// [`slice_histogram_deviation`] over [`HISTOGRAM_BINS`] bins: 0 = exactly uniform frames.
     pub histogram: f64,
+    /// [`radial_spectrum`]: normalised power per ring of radius `r` (cycles per longest side).
+    pub radial: Vec<f64>,
+    /// [`temporal_spectrum`]: normalised power per temporal frequency (cycles per `frames`).
+    pub temporal_spectrum: Vec<f64>,
+    /// [`filtered_error`] with EA's settings ([`FilteredErrorOptions::default`]) per frame.
+    pub filtered: Vec<f64>,
+    /// [`convergence()`] of each of [`Integrand::ALL`] over [`CONVERGENCE_SAMPLES`] samples from
+    /// frame 0 (EMA α = 0.1), in that order.
+    pub convergence: Vec<Convergence>,
+    /// The same started at frame `⌊frames / 3⌋` (toroidal progressiveness: a sequence may start
+    /// anywhere and should converge just as fast).
+    pub convergence_late: Vec<Convergence>,
 }
 
 impl Row {
@@ -42,7 +69,20 @@ impl Row {
             spatial: spatial_low_band(field),
             temporal: temporal_low_band(field),
             histogram: slice_histogram_deviation(field, HISTOGRAM_BINS),
+            radial: radial_spectrum(field),
+            temporal_spectrum: temporal_spectrum(field),
+            filtered: filtered_error(field, FilteredErrorOptions::default()),
+            convergence: converge(field, 0),
+            convergence_late: converge(field, field.depth() / 3),
         }
+    }
+
+    /// The filtered error of the last frame: the headline figure.
+    pub fn filtered_last(&self) -> f64 {
+        *self
+            .filtered
+            .last()
+            .expect("a field has at least one frame")
     }
 
     /// One line for the terminal.
@@ -52,44 +92,252 @@ impl Row {
             .map(|s| format!(" in {s:.2} s"))
             .unwrap_or_default();
         format!(
-            "{}: {} {}{time}; low band (white noise = 1): spatial {}, temporal {}",
+            "{}: {} {}{time}; low band (white noise = 1): spatial {}, temporal {}; \
+             filtered error {:.5}",
             self.name,
             size(self.size),
             self.kind,
             band(self.spatial),
             band(self.temporal),
+            self.filtered_last(),
         )
+    }
+
+    /// The curves of `integrand` from frame 0.
+    fn curves(&self, integrand: Integrand) -> &Convergence {
+        &self.convergence[integrand_index(integrand)]
+    }
+
+    /// The curves of `integrand` from frame `⌊frames / 3⌋`.
+    fn curves_late(&self, integrand: Integrand) -> &Convergence {
+        &self.convergence_late[integrand_index(integrand)]
     }
 }
 
-/// Writes `<out>/report.md` (creating `out`) with `intro` above the table of `rows`, and returns
-/// its path.
+/// [`convergence()`] of each of [`Integrand::ALL`] over [`CONVERGENCE_SAMPLES`] samples from
+/// frame `start`, EMA α = 0.1.
+fn converge(field: &Field, start: usize) -> Vec<Convergence> {
+    let options = ConvergenceOptions::new(CONVERGENCE_SAMPLES).starting_at(start);
+    Integrand::ALL
+        .iter()
+        .map(|&f| convergence(field, f, options))
+        .collect()
+}
+
+/// The position of `integrand` in [`Integrand::ALL`].
+fn integrand_index(integrand: Integrand) -> usize {
+    Integrand::ALL
+        .iter()
+        .position(|&f| f == integrand)
+        .expect("ALL holds every integrand")
+}
+
+/// Writes `<out>/report.md` (creating `out`) with `intro` above the figures of `rows`, and the
+/// plots it links to in `<out>/plots/`; returns the report's path.
 pub fn write(out: &Path, intro: &str, rows: &[Row]) -> Result<PathBuf> {
-    fs::create_dir_all(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
+    let plot_dir = out.join(PLOT_DIR);
+    fs::create_dir_all(&plot_dir)
+        .map_err(|e| format!("cannot create {}: {e}", plot_dir.display()))?;
+    for Figure { file, plot, .. } in figures(rows) {
+        plots::write(&plot, &plot_dir.join(file))?;
+    }
     let path = out.join("report.md");
     fs::write(&path, markdown(intro, rows))
         .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
     Ok(path)
 }
 
-/// The report: heading, `intro`, the table and what its columns mean.
+/// The folder of the plots, relative to report.md.
+const PLOT_DIR: &str = "plots";
+
+/// One plot of the report: its file in [`PLOT_DIR`], what it draws, and the caption describing
+/// its axes.
+struct Figure {
+    file: String,
+    plot: Plot,
+    axes: &'static str,
+}
+
+/// Every plot of the report. Series `i` is `rows[i]`.
+fn figures(rows: &[Row]) -> Vec<Figure> {
+    let names: Vec<String> = rows.iter().map(|row| row.name.clone()).collect();
+    let plot = |title: &str, x, y, legend, series, reference| Plot {
+        title: title.to_owned(),
+        names: names.clone(),
+        legend,
+        x,
+        y,
+        series,
+        reference,
+    };
+    let power = || Axis::linear("normalised power (white noise = 1)", 0.0, 2.5, 0.5);
+    // Radial: ring r of a slice whose longest side is L sits at r / L cycles per pixel. Rings
+    // beyond L / 2 hold only the corners of the frequency square, and DC is 0 by definition
+    // (the mean is removed): both left out, as is DC of the temporal spectrum.
+    let radial = rows
+        .iter()
+        .map(|row| {
+            let long = row.size.0.max(row.size.1);
+            let points = row.radial.iter().enumerate().take(long / 2 + 1).skip(1);
+            points.map(|(r, &p)| (r as f64 / long as f64, p)).collect()
+        })
+        .collect();
+    let temporal = rows
+        .iter()
+        .map(|row| {
+            let frames = row.size.2 as f64;
+            let points = row.temporal_spectrum.iter().enumerate().skip(1);
+            points.map(|(f, &p)| (f as f64 / frames, p)).collect()
+        })
+        .collect();
+    let filtered = rows
+        .iter()
+        .map(|row| {
+            let points = row.filtered.iter().enumerate();
+            points.map(|(k, &e)| (k as f64, e)).collect()
+        })
+        .collect();
+    let longest = rows.iter().map(|row| row.size.2).max().unwrap_or(1) as f64;
+    let mut all = vec![
+        Figure {
+            file: "radial.png".to_owned(),
+            plot: plot(
+                "Radial spatial spectrum",
+                Axis::linear("radial frequency (cycles per pixel)", 0.0, 0.5, 0.0625),
+                power(),
+                SeriesLabelPosition::UpperLeft,
+                radial,
+                Some(1.0),
+            ),
+            axes: "x: radial frequency 0 to 0.5 cycles per pixel, grid every 1/16; y: normalised \
+                   power 0 to 2.5, grid every 0.5; black line: white noise (1). Blue noise starts \
+                   near 0 and rises past 1.",
+        },
+        Figure {
+            file: "temporal.png".to_owned(),
+            plot: plot(
+                "Temporal spectrum",
+                Axis::linear("temporal frequency (cycles per frame)", 0.0, 0.5, 0.0625),
+                power(),
+                SeriesLabelPosition::UpperLeft,
+                temporal,
+                Some(1.0),
+            ),
+            axes: "x: temporal frequency 0 to 0.5 cycles per frame, grid every 1/16; y: \
+                   normalised power 0 to 2.5, grid every 0.5; black line: white noise (1).",
+        },
+        Figure {
+            file: "filtered_error.png".to_owned(),
+            plot: plot(
+                "Filtered error per frame",
+                Axis::linear("frame", 0.0, longest, (longest / 8.0).max(1.0)),
+                Axis::decades("filtered error (coverage)", -3, -1),
+                SeriesLabelPosition::UpperRight,
+                filtered,
+                None,
+            ),
+            axes: "x: frame, grid every eighth of the longest mask; y: filtered error, log scale \
+                   0.001 to 0.1, grid at 1, 2, 5 × 10ᵏ.",
+        },
+    ];
+    for integrand in Integrand::ALL {
+        for estimator in Estimator::ALL {
+            let series = rows
+                .iter()
+                .map(|row| {
+                    let curve = estimator.curve(row.curves(integrand)).iter().enumerate();
+                    curve.map(|(k, &e)| ((k + 1) as f64, e)).collect()
+                })
+                .collect();
+            let title = format!(
+                "Convergence, {} integrand, {}",
+                integrand.name(),
+                estimator.title()
+            );
+            all.push(Figure {
+                file: estimator.plot_file(integrand),
+                plot: plot(
+                    &title,
+                    Axis::decades("samples", 0, 2),
+                    Axis::decades("RMSE over pixels", -3, 0),
+                    SeriesLabelPosition::LowerLeft,
+                    series,
+                    None,
+                ),
+                axes: "x: samples, log scale 1 to 100, grid at 1, 2, 5 × 10ᵏ; y: RMSE, log scale \
+                       0.001 to 1, grid at 1, 2, 5 × 10ᵏ.",
+            });
+        }
+    }
+    all
+}
+
+/// The two estimators of a [`Convergence`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Estimator {
+    MonteCarlo,
+    Ema,
+}
+
+impl Estimator {
+    const ALL: [Estimator; 2] = [Estimator::MonteCarlo, Estimator::Ema];
+
+    /// Its error curve.
+    fn curve(self, convergence: &Convergence) -> &[f64] {
+        match self {
+            Estimator::MonteCarlo => &convergence.monte_carlo,
+            Estimator::Ema => &convergence.ema,
+        }
+    }
+
+    /// Short label: `MC` or `EMA`.
+    fn label(self) -> &'static str {
+        match self {
+            Estimator::MonteCarlo => "MC",
+            Estimator::Ema => "EMA",
+        }
+    }
+
+    /// Full name for captions.
+    fn title(self) -> &'static str {
+        match self {
+            Estimator::MonteCarlo => "Monte Carlo",
+            Estimator::Ema => "EMA",
+        }
+    }
+
+    /// The file of its convergence plot of `integrand`, e.g. `convergence_step_mc.png`.
+    fn plot_file(self, integrand: Integrand) -> String {
+        let short = self.label().to_lowercase();
+        format!("convergence_{}_{short}.png", integrand.name())
+    }
+}
+
+/// The report: heading, `intro`, the table, what its columns mean, the convergence figures of
+/// every integrand and the plots.
 fn markdown(intro: &str, rows: &[Row]) -> String {
+    let at = CONVERGENCE_AT.map(|n| n.to_string()).join("/");
     let mut text = format!(
         "# Blue-noise mask report\n\n{intro}\n\n\
-         | mask | size | kind | seconds | spatial low band | temporal low band | histogram deviation |\n\
-         |---|---|---|---:|---:|---:|---:|\n"
+         | mask | size | kind | seconds | spatial low band | temporal low band | histogram deviation \
+         | filtered error | step MC RMSE at {at} | step EMA RMSE at {at} |\n\
+         |---|---|---|---:|---:|---:|---:|---:|---:|---:|\n"
     );
     for row in rows {
         let seconds = row.seconds.map_or("n/a".to_owned(), |s| format!("{s:.2}"));
+        let step = row.curves(Integrand::Step);
         writeln!(
             text,
-            "| {} | {} | {} | {seconds} | {} | {} | {:.4} |",
+            "| {} | {} | {} | {seconds} | {} | {} | {:.4} | {:.5} | {} | {} |",
             row.name.replace('|', "\\|"),
             size(row.size),
             row.kind,
             band(row.spatial),
             band(row.temporal),
             row.histogram,
+            row.filtered_last(),
+            at_samples(&step.monte_carlo),
+            at_samples(&step.ema),
         )
         .expect("writing to a String cannot fail");
     }
@@ -99,7 +347,7 @@ Columns:\n\n\
 - **size**: width × height × frames (pixels, pixels, frames).\n\
 - **kind**: the energy a generated mask was made with (`spatiotemporal`: blue in space and over \
 time; `independent2d`: an independent 2D blue-noise mask per frame; `isotropic3d`: 3D blue noise), \
-or `png N-bit` for analysed slice files.\n\
+`png N-bit` for analysed slice files, or `baseline …` for a comparison field.\n\
 - **seconds**: wall-clock generation time (n/a for analysed files).\n\
 - **spatial low band**: each frame's 2D power spectrum with the mean removed, divided by what \
 white noise of the same variance would have, averaged over the low frequencies 0 < |ν| ≤ 1/8 \
@@ -112,11 +360,107 @@ over time (`independent2d`) about 1. n/a for a single frame.\n\
 - **histogram deviation**: the largest relative deviation of any frame's {HISTOGRAM_BINS}-bin \
 histogram of values from uniform, |count − expected| / expected. 0 = every frame exactly \
 uniform (void-and-cluster ranks always are); white noise measures about 0.2 over 32 frames \
- of 64×64.\n\n\
+ of 64×64.\n\
+- **filtered error**: EA's FAST metric at the last frame. For 256 stratified thresholds t, each \
+frame is binarised (value < t), blurred with a toroidal Gaussian of σ = 1.3435 px, averaged over \
+frames with an EMA (α = 0.1); the figure is √(mean over t of the spatial variance), in units of \
+coverage. Lower is better; white noise measures about 0.020 (expected √(1/6 · 1/(4πσ²) · \
+α/(2 − α)) = 0.0197).\n\
+- **step MC / EMA RMSE**: every pixel estimates ∫₀¹ [x < ½] dx = ½ from its values over the \
+frames (from frame 0, wrapping after the last), as a running mean (Monte Carlo) or an EMA \
+(α = 0.1); the root-mean-square error over pixels after {at} samples. White noise: 0.5/√n for \
+Monte Carlo, a plateau of 0.5·√(α/(2 − α)) = 0.115 for the EMA.\n\n\
 Figures of generated masks are measured on the exact ranks, before PNG quantisation; those of \
 analysed files on the decoded samples, (sample + ½) / 2^bits.\n"
     ));
+    convergence_section(&mut text, rows);
+    plot_section(&mut text, rows);
     text
+}
+
+/// The convergence figures of every integrand, as an aligned text block.
+fn convergence_section(text: &mut String, rows: &[Row]) {
+    let width = rows
+        .iter()
+        .map(|row| row.name.len())
+        .max()
+        .unwrap_or(4)
+        .max(4);
+    let at = CONVERGENCE_AT.map(|n| format!("{n:>7}")).join("");
+    text.push_str(
+        "\n## Convergence\n\n\
+         RMSE over pixels of the per-pixel estimate of ∫₀¹ f after n samples (one per frame from \
+         frame `start`, wrapping after the last), for the ramp f(x) = x (∫ = ½), the step \
+         f(x) = [x < ½] (∫ = ½) and the sine f(x) = sin(πx) (∫ = 2/π); Monte Carlo running mean \
+         and EMA (α = 0.1). Each mask is measured from frame 0 and from frame ⌊frames/3⌋: a mask \
+         that is blue over time converges as fast from any start.\n\n```text\n",
+    );
+    writeln!(text, "{:width$}  integrand  estimator  start{at}", "mask").expect("String");
+    for row in rows {
+        for integrand in Integrand::ALL {
+            let starts = [
+                (0, row.curves(integrand)),
+                (row.size.2 / 3, row.curves_late(integrand)),
+            ];
+            for (estimator, (start, curves)) in Estimator::ALL
+                .into_iter()
+                .flat_map(|e| starts.map(|s| (e, s)))
+            {
+                let curve = estimator.curve(curves);
+                let figures: String = CONVERGENCE_AT
+                    .iter()
+                    .map(|&n| {
+                        curve
+                            .get(n - 1)
+                            .map_or("    n/a".to_owned(), |e| format!("{e:7.4}"))
+                    })
+                    .collect();
+                writeln!(
+                    text,
+                    "{:width$}  {:9}  {:9}  {start:5}{figures}",
+                    row.name,
+                    integrand.name(),
+                    estimator.label(),
+                )
+                .expect("String");
+            }
+        }
+    }
+    text.push_str("```\n");
+}
+
+/// The plots, with their axes and the colour legend.
+fn plot_section(text: &mut String, rows: &[Row]) {
+    text.push_str("\n## Plots\n\nColours: ");
+    let legend: Vec<String> = rows
+        .iter()
+        .enumerate()
+        .map(|(i, row)| format!("{} = {}", PALETTE[i % PALETTE.len()].0, row.name))
+        .collect();
+    text.push_str(&legend.join(", "));
+    text.push_str(
+        ". Titles, tick labels and legends are drawn only where a TrueType font was found \
+         (`$STBN_PLOT_FONT` or a system font); the axes are stated under each plot either way.\n",
+    );
+    for Figure { file, plot, axes } in figures(rows) {
+        let title = &plot.title;
+        write!(
+            text,
+            "\n**{title}.** {axes}\n\n![{title}]({PLOT_DIR}/{file})\n"
+        )
+        .expect("String");
+    }
+}
+
+/// `curve` after each of [`CONVERGENCE_AT`] samples, `a / b / c / d` with 4 decimals.
+fn at_samples(curve: &[f64]) -> String {
+    CONVERGENCE_AT
+        .map(|n| {
+            curve
+                .get(n - 1)
+                .map_or("n/a".to_owned(), |e| format!("{e:.4}"))
+        })
+        .join(" / ")
 }
 
 fn size((width, height, depth): (usize, usize, usize)) -> String {
@@ -131,7 +475,15 @@ fn band(value: Option<f64>) -> String {
 mod tests {
     use super::*;
 
+    fn ramp_field() -> Vec<f64> {
+        (0..64 * 4)
+            .map(|i| ((i * 37) % 256) as f64 / 256.0)
+            .collect()
+    }
+
     fn row(name: &str, seconds: Option<f64>, temporal: Option<f64>) -> Row {
+        let values = ramp_field();
+        let field = Field::new(8, 8, 4, &values).unwrap();
         Row {
             name: name.to_owned(),
             size: (64, 32, 1),
@@ -140,6 +492,8 @@ mod tests {
             spatial: Some(0.00123456),
             temporal,
             histogram: 0.0,
+            filtered: vec![0.5, 0.012345],
+            ..Row::measure(name, "png 8-bit", seconds, &field)
         }
     }
 
@@ -154,23 +508,32 @@ mod tests {
         );
         assert!(text.starts_with("# Blue-noise mask report\n\nIntro.\n\n| mask |"));
         assert!(
-            text.contains("| a\\|b | 64×32×1 | png 8-bit | n/a | 0.0012 | n/a | 0.0000 |\n"),
+            text.contains(
+                "| a\\|b | 64×32×1 | png 8-bit | n/a | 0.0012 | n/a | 0.0000 | 0.01235 |"
+            ),
             "{text}"
         );
         assert!(
-            text.contains("| scalar | 64×32×1 | png 8-bit | 1.23 | 0.0012 | 0.5000 | 0.0000 |\n")
+            text.contains("| scalar | 64×32×1 | png 8-bit | 1.23 | 0.0012 | 0.5000 | 0.0000 |")
         );
         assert!(text.contains("**White noise = 1**"));
+        // The first sample of the step is 0 or 1 everywhere: error exactly ½.
+        assert!(text.contains("| 0.5000 / "), "{text}");
+        assert!(text.contains("![Filtered error per frame](plots/filtered_error.png)"));
+        assert!(text.contains("blue = a|b, orange = scalar."));
+        // Every integrand and estimator has a line per mask; 4 frames wrap up to 64 samples.
+        let lines = text.lines().filter(|l| l.starts_with("scalar ")).count();
+        assert_eq!(lines, 12, "{text}");
     }
 
     #[test]
-    fn summary_names_mask_size_time_and_bands() {
+    fn summary_names_mask_size_time_bands_and_filtered_error() {
         assert_eq!(
             row("scalar", Some(0.5), Some(0.04)).summary(),
             "scalar: 64×32×1 png 8-bit in 0.50 s; low band (white noise = 1): spatial 0.0012, \
-             temporal 0.0400"
+             temporal 0.0400; filtered error 0.01235"
         );
-        assert!(row("x", None, None).summary().ends_with("temporal n/a"));
+        assert!(row("x", None, None).summary().contains("temporal n/a;"));
     }
 
     #[test]
@@ -183,5 +546,28 @@ mod tests {
         assert_eq!(row.histogram, 0.0);
         // A ramp along the rows is all low frequency: far above white.
         assert!(row.spatial.unwrap() > 1.0);
+        assert_eq!(row.filtered.len(), 1);
+        assert_eq!(row.convergence.len(), Integrand::ALL.len());
+        // One frame: every sample repeats it, so the Monte Carlo error never changes.
+        let step = row.curves(Integrand::Step);
+        assert_eq!(step.monte_carlo.len(), CONVERGENCE_SAMPLES);
+        assert!(step.monte_carlo.iter().all(|&e| e == step.monte_carlo[0]));
+    }
+
+    #[test]
+    fn write_creates_the_report_and_every_linked_plot() {
+        let dir = tempfile::tempdir().unwrap();
+        let rows = [row("a", None, None), row("b", Some(1.0), Some(0.3))];
+        let path = write(dir.path(), "Intro.", &rows).unwrap();
+        let text = fs::read_to_string(path).unwrap();
+        let links: Vec<&str> = text
+            .lines()
+            .filter_map(|l| l.strip_prefix("![")?.split("](").nth(1)?.strip_suffix(')'))
+            .collect();
+        assert_eq!(links.len(), 3 + 2 * Integrand::ALL.len());
+        for link in links {
+            let bytes = fs::read(dir.path().join(link)).unwrap();
+            assert!(bytes.starts_with(b"\x89PNG"), "{link}");
+        }
     }
 }
