@@ -1,7 +1,7 @@
 //! Turning a generated [`Volume`] into a `.stbn` blob: quantisation, compression, header.
 
 use stbn_gen::Volume;
-use stbn_runtime::{Compression, Encoding, MaskHeader, ValueMap};
+use stbn_runtime::{Compression, Encoding, MaskHeader};
 
 /// The miniz_oxide level used for [`Compression::Deflate`] (0–10; 9 is zlib's "best").
 pub const DEFLATE_LEVEL: u8 = 9;
@@ -59,20 +59,8 @@ pub fn encode_volume(volume: &Volume, encoding: Encoding, compression: Compressi
         Compression::Lz4 => lz4_flex::block::compress(&decoded),
         Compression::Deflate => miniz_oxide::deflate::compress_to_vec(&decoded, DEFLATE_LEVEL),
     };
-    let header = MaskHeader {
-        width: volume.width(),
-        height: volume.height(),
-        depth: volume.depth(),
-        channels: 1,
-        encoding,
-        compression,
-        value_map: ValueMap::Unit,
-        payload_len: u32::try_from(payload.len())
-            .expect("payloads of volumes within MaskSpec limits fit in u32"),
-        payload_crc32: crc32fast::hash(&payload),
-        pdf_min: 0.0,
-        pdf_max: 0.0,
-    };
+    let header = MaskHeader::new(volume.width(), volume.height(), volume.depth(), 1, encoding)
+        .with_payload(compression, &payload);
     let mut blob = Vec::with_capacity(MaskHeader::SIZE + payload.len());
     blob.extend_from_slice(&header.to_bytes());
     blob.extend_from_slice(&payload);

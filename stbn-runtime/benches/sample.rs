@@ -3,7 +3,7 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use stbn_runtime::{Compression, Encoding, MaskHeader, SampleOffset, Stbn, ValueMap};
+use stbn_runtime::{Compression, Encoding, MaskHeader, SampleOffset, Stbn};
 
 const W: u32 = 128;
 const H: u32 = 128;
@@ -11,19 +11,7 @@ const D: u32 = 64;
 
 /// A 128×128×64 single-channel blob with pseudo-random payload.
 fn blob(encoding: Encoding) -> Vec<u8> {
-    let mut header = MaskHeader {
-        width: W,
-        height: H,
-        depth: D,
-        channels: 1,
-        encoding,
-        compression: Compression::None,
-        value_map: ValueMap::Unit,
-        payload_len: 0,
-        payload_crc32: 0,
-        pdf_min: 0.0,
-        pdf_max: 0.0,
-    };
+    let header = MaskHeader::new(W, H, D, 1, encoding);
     let elements = header.element_count();
     let mut state = 0x2545_F491_4F6C_DD1Du64;
     let mut next = || {
@@ -41,8 +29,7 @@ fn blob(encoding: Encoding) -> Vec<u8> {
             .flat_map(|_| ((next() >> 40) as f32 / (1u64 << 24) as f32).to_le_bytes())
             .collect(),
     };
-    header.payload_len = payload.len() as u32;
-    header.payload_crc32 = crc32fast::hash(&payload);
+    let header = header.with_payload(Compression::None, &payload);
     let mut out = header.to_bytes().to_vec();
     out.extend_from_slice(&payload);
     out

@@ -181,6 +181,43 @@ impl MaskHeader {
     /// The only `format_version` this crate reads and writes.
     pub const FORMAT_VERSION: u16 = 1;
 
+    /// The header of an uncompressed mask of unit values (`ValueMap::Unit`) without a pdf, with
+    /// an empty payload; [`with_payload`](Self::with_payload) describes the bytes to store.
+    pub const fn new(
+        width: u32,
+        height: u32,
+        depth: u32,
+        channels: u8,
+        encoding: Encoding,
+    ) -> Self {
+        MaskHeader {
+            width,
+            height,
+            depth,
+            channels,
+            encoding,
+            compression: Compression::None,
+            value_map: ValueMap::Unit,
+            payload_len: 0,
+            payload_crc32: 0,
+            pdf_min: 0.0,
+            pdf_max: 0.0,
+        }
+    }
+
+    /// This header describing `stored`, the payload bytes as written after the header (already
+    /// compressed with `compression`): sets `compression`, `payload_len` and `payload_crc32`.
+    ///
+    /// A payload longer than `u32::MAX` bytes records `u32::MAX`, which [`parse`](Self::parse)
+    /// rejects as not matching the blob; masks within [`MAX_DECODED_BYTES`](crate::MAX_DECODED_BYTES)
+    /// never come close.
+    pub fn with_payload(mut self, compression: Compression, stored: &[u8]) -> Self {
+        self.compression = compression;
+        self.payload_len = u32::try_from(stored.len()).unwrap_or(u32::MAX);
+        self.payload_crc32 = crc32fast::hash(stored);
+        self
+    }
+
     /// Serialises the header, filling in magic, version, `header_len`,
     /// `header_crc32` and zero reserved bytes.
     ///
@@ -448,19 +485,7 @@ mod tests {
 
     #[test]
     fn decoded_len_saturates_for_hand_built_headers() {
-        let h = MaskHeader {
-            width: u32::MAX,
-            height: u32::MAX,
-            depth: u32::MAX,
-            channels: 4,
-            encoding: Encoding::F32,
-            compression: Compression::None,
-            value_map: ValueMap::Unit,
-            payload_len: 0,
-            payload_crc32: 0,
-            pdf_min: 0.0,
-            pdf_max: 0.0,
-        };
+        let h = MaskHeader::new(u32::MAX, u32::MAX, u32::MAX, 4, Encoding::F32);
         assert_eq!(h.decoded_len(), usize::MAX);
         assert_eq!(
             MaskHeader::parse(&h.to_bytes()),

@@ -1,7 +1,7 @@
 //! Blob builders and a deterministic RNG shared by the integration tests.
 #![allow(dead_code)] // each test binary uses a different subset of the helpers
 
-use stbn_runtime::{Compression, Encoding, MaskHeader, ValueMap};
+use stbn_runtime::{Compression, Encoding, MaskHeader};
 
 /// SplitMix64: small, deterministic, good enough for test data.
 pub struct Rng(pub u64);
@@ -26,26 +26,12 @@ impl Rng {
 
 /// An uncompressed header for the given shape; payload fields filled by [`blob`].
 pub fn header(w: u32, h: u32, d: u32, channels: u8, encoding: Encoding) -> MaskHeader {
-    MaskHeader {
-        width: w,
-        height: h,
-        depth: d,
-        channels,
-        encoding,
-        compression: Compression::None,
-        value_map: ValueMap::Unit,
-        payload_len: 0,
-        payload_crc32: 0,
-        pdf_min: 0.0,
-        pdf_max: 0.0,
-    }
+    MaskHeader::new(w, h, d, channels, encoding)
 }
 
 /// Header bytes followed by `stored`, with `payload_len`/`payload_crc32` set to match.
-pub fn blob(mut h: MaskHeader, stored: &[u8]) -> Vec<u8> {
-    h.payload_len = stored.len() as u32;
-    h.payload_crc32 = crc32fast::hash(stored);
-    let mut out = h.to_bytes().to_vec();
+pub fn blob(h: MaskHeader, stored: &[u8]) -> Vec<u8> {
+    let mut out = h.with_payload(h.compression, stored).to_bytes().to_vec();
     out.extend_from_slice(stored);
     out
 }
