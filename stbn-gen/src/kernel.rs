@@ -11,7 +11,8 @@ use std::collections::BTreeMap;
 
 use crate::spec::{EnergyTopology, MaskSpec};
 
-/// One fixed-point unit is `1 / scale` of the peak weight.
+/// A fixed-point weight: the real weight (peak 1) times the kernel's scale, which is chosen so the
+/// weights sum below [`EnergyKernel::MAX_TOTAL`].
 pub type Weight = u32;
 
 /// Receives the taps of one splat: [`EnergyKernel::for_each_tap`] calls `visit(index, weight)`.
@@ -58,7 +59,6 @@ pub struct EnergyKernel {
     /// x wrapping.
     min_dx: i32,
     max_dx: i32,
-    scale: f64,
     total: u64,
 }
 
@@ -169,7 +169,6 @@ impl EnergyKernel {
             rows,
             min_dx,
             max_dx,
-            scale,
             total,
         }
     }
@@ -177,11 +176,6 @@ impl EnergyKernel {
     /// Number of distinct wrapped offsets a splat touches (the footprint).
     pub fn taps(&self) -> usize {
         self.rows.iter().map(|r| r.taps.len()).sum()
-    }
-
-    /// Fixed-point units per unit of real-valued weight.
-    pub fn scale(&self) -> f64 {
-        self.scale
     }
 
     /// Sum of all fixed-point weights: the energy of a pixel when every pixel is on.
