@@ -31,7 +31,7 @@ pub enum Error {
     /// `width * height * depth * channels * bytes_per_element` overflows or
     /// exceeds [`MAX_DECODED_BYTES`](crate::MAX_DECODED_BYTES).
     DecodedTooLarge,
-    /// `header_crc32` does not match the CRC-32 of header bytes `0..40`.
+    /// `header_crc32` does not match the CRC-32 of header bytes `0..60`.
     HeaderChecksum,
     /// `payload_crc32` does not match the CRC-32 of the stored payload.
     PayloadChecksum,

@@ -91,31 +91,116 @@ pub enum ValueMap {
     /// Each component `c` in `[-1, 1]` is stored as `u = c * 0.5 + 0.5`; decode with
     /// [`ValueMap::apply`] (`c = u * 2 - 1`).
     Signed = 1,
+    /// A unit 3D vector stored in two channels as its octahedral map (Cigolle et al. 2014):
+    /// `n / (|n.x| + |n.y| + |n.z|)`, the lower hemisphere folded over the diagonals, then
+    /// `u = e * 0.5 + 0.5` per channel. [`Stbn::sample_vec3`](crate::Stbn::sample_vec3) decodes
+    /// it back to a unit vector. Needs a 3D unit [`Space`] and exactly two value channels.
+    Octahedral = 2,
 }
 
 impl ValueMap {
-    /// The enum for header byte 23, or `None` if `byte` is not 0 or 1.
+    /// The enum for header byte 23, or `None` if `byte` is not 0, 1 or 2.
     pub const fn from_u8(byte: u8) -> Option<Self> {
         match byte {
             0 => Some(Self::Unit),
             1 => Some(Self::Signed),
+            2 => Some(Self::Octahedral),
             _ => None,
         }
     }
 
-    /// The header byte for this value map (0 or 1).
+    /// The header byte for this value map (0, 1 or 2).
     pub const fn to_u8(self) -> u8 {
         self as u8
     }
 
     /// Maps a stored unit value `u` (what [`Stbn::sample`](crate::Stbn::sample) returns)
-    /// to the represented quantity: `u` for [`Unit`](Self::Unit), `u * 2 - 1` (in
-    /// `[-1, 1]`) for [`Signed`](Self::Signed).
+    /// to the represented component: `u` for [`Unit`](Self::Unit), `u * 2 - 1` (in
+    /// `[-1, 1]`) for [`Signed`](Self::Signed) and for the octahedral coordinates of
+    /// [`Octahedral`](Self::Octahedral) (which then still need
+    /// [`octahedral_decode`](crate::octahedral_decode)).
     pub const fn apply(self, u: f32) -> f32 {
         match self {
             Self::Unit => u,
-            Self::Signed => u * 2.0 - 1.0,
+            Self::Signed | Self::Octahedral => u * 2.0 - 1.0,
         }
+    }
+}
+
+/// What a mask's values are samples of: the space and the distribution they were drawn from.
+///
+/// It fixes how many components a value has ([`MaskHeader::dims`]), whether the mask stores a
+/// pdf channel ([`Space::stores_pdf`]) and, where the pdf is derivable, what
+/// [`Stbn::sample_pdf`](crate::Stbn::sample_pdf) returns.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[repr(u8)]
+pub enum Space {
+    /// Independent uniform scalars in `[0, 1)`, one per channel (scalar STBN and its baselines).
+    /// pdf 1.
+    Scalar = 0,
+    /// Uniform vectors in `[0, 1)^n` (or `[-1, 1]^n` with [`ValueMap::Signed`]), optimised
+    /// jointly. pdf 1 (`2^-n` when signed).
+    Vec = 1,
+    /// Uniform unit vectors: `±1` (n = 1, pdf ½ per sign), the circle (n = 2, pdf `1/(2π)` per
+    /// radian) or the sphere (n = 3, pdf `1/(4π)` per steradian).
+    UnitVec = 2,
+    /// Uniform directions on the hemisphere `z ≥ 0`; pdf `1/(2π)` per steradian.
+    UniformHemisphere = 3,
+    /// Cosine-weighted directions on the hemisphere `z ≥ 0`; pdf `z/π` per steradian.
+    CosineHemisphere = 4,
+    /// Points in `[0, 1)²` drawn with density proportional to an image's luminance. The last
+    /// channel stores the pdf (per unit area of `[0, 1)²`).
+    ImagePoints = 5,
+    /// Unit directions drawn from a latitude-longitude environment map's luminance. The last
+    /// channel stores the pdf per steradian (including the `sin θ` Jacobian).
+    EnvironmentDirections = 6,
+}
+
+impl Space {
+    /// The enum for header byte 40, or `None` if `byte` is above 6.
+    pub const fn from_u8(byte: u8) -> Option<Self> {
+        match byte {
+            0 => Some(Self::Scalar),
+            1 => Some(Self::Vec),
+            2 => Some(Self::UnitVec),
+            3 => Some(Self::UniformHemisphere),
+            4 => Some(Self::CosineHemisphere),
+            5 => Some(Self::ImagePoints),
+            6 => Some(Self::EnvironmentDirections),
+            _ => None,
+        }
+    }
+
+    /// The header byte for this space (0..=6).
+    pub const fn to_u8(self) -> u8 {
+        self as u8
+    }
+
+    /// `true` for the spaces whose pdf is not derivable from the value, so the last channel
+    /// stores it: [`ImagePoints`](Self::ImagePoints) and
+    /// [`EnvironmentDirections`](Self::EnvironmentDirections).
+    pub const fn stores_pdf(self) -> bool {
+        matches!(self, Self::ImagePoints | Self::EnvironmentDirections)
+    }
+
+    /// `true` for spaces of unit vectors (values are normalised after decoding).
+    pub const fn is_unit(self) -> bool {
+        matches!(
+            self,
+            Self::UnitVec
+                | Self::UniformHemisphere
+                | Self::CosineHemisphere
+                | Self::EnvironmentDirections
+        )
+    }
+
+    /// `true` for spaces of 3D unit vectors only (the ones that may use
+    /// [`ValueMap::Octahedral`]); [`UnitVec`](Self::UnitVec) is 1D, 2D or 3D.
+    const fn is_direction3(self) -> bool {
+        matches!(
+            self,
+            Self::UniformHemisphere | Self::CosineHemisphere | Self::EnvironmentDirections
+        )
     }
 }
 
@@ -139,11 +224,23 @@ impl ValueMap {
 /// | 28     | `u32`    | payload_crc32 (`crc32fast::hash` of the stored payload) |
 /// | 32     | `f32`    | pdf_min |
 /// | 36     | `f32`    | pdf_max |
-/// | 40     | `u32`    | header_crc32 (CRC-32 of bytes `0..40`) |
-/// | 44     | `[u8;20]`| reserved, zero |
+/// | 40     | `u8`     | space ([`Space`]) |
+/// | 41     | `[u8;19]`| reserved, zero |
+/// | 60     | `u32`    | header_crc32 (CRC-32 of bytes `0..60`) |
 ///
 /// The decoded payload holds `width * height * depth * channels` elements in the
-/// order `((z * height + y) * width + x) * channels + c`.
+/// order `((z * height + y) * width + x) * channels + c`. The first
+/// [`value_channels`](Self::value_channels) channels hold the value; when
+/// [`Space::stores_pdf`] the last channel holds the pdf normalised to `[0, 1]` as
+/// `t = (pdf - pdf_min) / (pdf_max - pdf_min)`, stored full-range (Unorm `q = round(t · (2^bits - 1))`,
+/// read back as `q / (2^bits - 1)`, so `pdf_min` and `pdf_max` are exact; F32 stores `t`).
+///
+/// Consistency rules checked by [`parse`](Self::parse), in value channels (channels
+/// without the pdf): 1..=4 for [`Space::Scalar`] and [`Space::Vec`]; 1..=3 for
+/// [`Space::UnitVec`]; 3 for the hemispheres and environment directions; 2 for
+/// [`Space::ImagePoints`]; [`ValueMap::Octahedral`] only for 3D unit vectors, in 2 value
+/// channels; unit spaces are never [`ValueMap::Unit`]; a pdf range (`0 <= pdf_min <= pdf_max`,
+/// `pdf_max > 0`) exactly when the space stores a pdf, both zero otherwise.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MaskHeader {
     /// Voxels along x, at least 1.
@@ -160,29 +257,36 @@ pub struct MaskHeader {
     pub compression: Compression,
     /// Meaning of the stored unit values.
     pub value_map: ValueMap,
+    /// What the values are samples of.
+    pub space: Space,
     /// Bytes stored after the header; equals [`decoded_len`](Self::decoded_len)
     /// when `compression` is [`Compression::None`], and is non-zero otherwise.
     pub payload_len: u32,
     /// `crc32fast::hash` (CRC-32/IEEE) of the stored (possibly compressed) payload.
     pub payload_crc32: u32,
-    /// Smallest sampling-pdf value the mask was generated for; finite, 0.0 if the mask stores no pdf.
+    /// Smallest pdf value stored in the pdf channel; finite, `>= 0`; 0.0 if the space stores no pdf.
     pub pdf_min: f32,
-    /// Largest sampling-pdf value; finite, `>= pdf_min`, 0.0 if the mask stores no pdf.
+    /// Largest pdf value stored in the pdf channel; finite, `> 0` and `>= pdf_min` if the space
+    /// stores a pdf, 0.0 otherwise.
     pub pdf_max: f32,
 }
 
 const MAGIC: [u8; 4] = *b"STBN";
 /// Byte offset of `header_crc32`; the checksum covers bytes `0..HEADER_CRC_OFFSET`.
-const HEADER_CRC_OFFSET: usize = 40;
+const HEADER_CRC_OFFSET: usize = 60;
+/// First reserved byte; bytes `RESERVED_START..HEADER_CRC_OFFSET` must be zero.
+const RESERVED_START: usize = 41;
 
 impl MaskHeader {
     /// Size of the serialised header in bytes; the payload starts at this offset.
     pub const SIZE: usize = 64;
-    /// The only `format_version` this crate reads and writes.
-    pub const FORMAT_VERSION: u16 = 1;
+    /// The only `format_version` this crate reads and writes. Version 2 added
+    /// [`space`](Self::space) and moved `header_crc32` to byte 60.
+    pub const FORMAT_VERSION: u16 = 2;
 
-    /// The header of an uncompressed mask of unit values (`ValueMap::Unit`) without a pdf, with
-    /// an empty payload; [`with_payload`](Self::with_payload) describes the bytes to store.
+    /// The header of an uncompressed mask of [`Space::Scalar`] unit values (`ValueMap::Unit`)
+    /// without a pdf, with an empty payload; [`with_payload`](Self::with_payload) describes the
+    /// bytes to store and [`with_space`](Self::with_space) other spaces.
     pub const fn new(
         width: u32,
         height: u32,
@@ -198,6 +302,7 @@ impl MaskHeader {
             encoding,
             compression: Compression::None,
             value_map: ValueMap::Unit,
+            space: Space::Scalar,
             payload_len: 0,
             payload_crc32: 0,
             pdf_min: 0.0,
@@ -216,6 +321,40 @@ impl MaskHeader {
         self.payload_len = u32::try_from(stored.len()).unwrap_or(u32::MAX);
         self.payload_crc32 = crc32fast::hash(stored);
         self
+    }
+
+    /// This header with `space`, `value_map` and the stored pdf range `pdf_min..=pdf_max`
+    /// (pass `0.0, 0.0` for spaces that store no pdf).
+    pub const fn with_space(
+        mut self,
+        space: Space,
+        value_map: ValueMap,
+        pdf_min: f32,
+        pdf_max: f32,
+    ) -> Self {
+        self.space = space;
+        self.value_map = value_map;
+        self.pdf_min = pdf_min;
+        self.pdf_max = pdf_max;
+        self
+    }
+
+    /// Channels holding the value: [`channels`](Self::channels) minus the pdf channel, if any.
+    pub const fn value_channels(&self) -> u8 {
+        if self.space.stores_pdf() {
+            self.channels.saturating_sub(1)
+        } else {
+            self.channels
+        }
+    }
+
+    /// Components of one decoded value: 3 for [`ValueMap::Octahedral`], otherwise
+    /// [`value_channels`](Self::value_channels).
+    pub const fn dims(&self) -> u8 {
+        match self.value_map {
+            ValueMap::Octahedral => 3,
+            _ => self.value_channels(),
+        }
     }
 
     /// Serialises the header, filling in magic, version, `header_len`,
@@ -239,6 +378,7 @@ impl MaskHeader {
         put(&mut b, 28, &self.payload_crc32.to_le_bytes());
         put(&mut b, 32, &self.pdf_min.to_le_bytes());
         put(&mut b, 36, &self.pdf_max.to_le_bytes());
+        b[40] = self.space.to_u8();
         let (covered, _) = b.split_at(HEADER_CRC_OFFSET);
         let crc = crc32_ieee(covered);
         put(&mut b, HEADER_CRC_OFFSET, &crc.to_le_bytes());
@@ -281,10 +421,10 @@ impl MaskHeader {
         if crc32_ieee(covered) != read_u32(bytes, HEADER_CRC_OFFSET) {
             return Err(Error::HeaderChecksum);
         }
-        let mut i = 44;
-        while i < Self::SIZE {
+        let mut i = RESERVED_START;
+        while i < HEADER_CRC_OFFSET {
             if bytes[i] != 0 {
-                return Err(invalid("reserved", "bytes 44..64 must be zero"));
+                return Err(invalid("reserved", "bytes 41..60 must be zero"));
             }
             i += 1;
         }
@@ -318,7 +458,13 @@ impl MaskHeader {
             ));
         };
         let Some(value_map) = ValueMap::from_u8(bytes[23]) else {
-            return Err(invalid("value_map", "must be 0 (Unit) or 1 (Signed)"));
+            return Err(invalid(
+                "value_map",
+                "must be 0 (Unit), 1 (Signed) or 2 (Octahedral)",
+            ));
+        };
+        let Some(space) = Space::from_u8(bytes[40]) else {
+            return Err(invalid("space", "must be in 0..=6"));
         };
         let pdf_min = f32::from_bits(read_u32(bytes, 32));
         let pdf_max = f32::from_bits(read_u32(bytes, 36));
@@ -328,8 +474,50 @@ impl MaskHeader {
         if !pdf_max.is_finite() {
             return Err(invalid("pdf_max", "must be finite"));
         }
-        if pdf_min > pdf_max {
-            return Err(invalid("pdf_max", "must be >= pdf_min"));
+        if space.stores_pdf() {
+            if pdf_min < 0.0 {
+                return Err(invalid("pdf_min", "must be >= 0"));
+            }
+            if pdf_max <= 0.0 {
+                return Err(invalid(
+                    "pdf_max",
+                    "must be > 0 for a space that stores a pdf",
+                ));
+            }
+            if pdf_min > pdf_max {
+                return Err(invalid("pdf_max", "must be >= pdf_min"));
+            }
+            if channels < 2 {
+                return Err(invalid(
+                    "channels",
+                    "a space that stores a pdf needs a value channel and the pdf channel",
+                ));
+            }
+        } else if pdf_min.to_bits() != 0 || pdf_max.to_bits() != 0 {
+            return Err(invalid(
+                "pdf_min",
+                "pdf_min and pdf_max must be 0.0 for a space that stores no pdf",
+            ));
+        }
+        let value_channels = if space.stores_pdf() {
+            channels - 1
+        } else {
+            channels
+        };
+        let shape_ok = match (space, value_map) {
+            (Space::Scalar | Space::Vec, ValueMap::Unit | ValueMap::Signed) => true,
+            (Space::UnitVec, ValueMap::Signed) => value_channels <= 3,
+            (Space::ImagePoints, ValueMap::Unit) => value_channels == 2,
+            (_, ValueMap::Signed) if space.is_direction3() => value_channels == 3,
+            (Space::UnitVec, ValueMap::Octahedral) => value_channels == 2,
+            (_, ValueMap::Octahedral) if space.is_direction3() => value_channels == 2,
+            _ => false,
+        };
+        if !shape_ok {
+            return Err(invalid(
+                "space",
+                "does not fit value_map and channels (see the MaskHeader docs)",
+            ));
         }
 
         let header = Self {
@@ -340,6 +528,7 @@ impl MaskHeader {
             encoding,
             compression,
             value_map,
+            space,
             payload_len: read_u32(bytes, 24),
             payload_crc32: read_u32(bytes, 28),
             pdf_min,
@@ -433,8 +622,8 @@ const fn read_u32(b: &[u8], offset: usize) -> u32 {
 
 /// Bitwise CRC-32/IEEE (reflected, polynomial `0xEDB88320`, init and xor-out
 /// `0xFFFF_FFFF`): the same function as `crc32fast::hash`, but usable in `const`
-/// contexts. Eight shift steps per byte, so it is used only for the 40 header
-/// bytes; payloads go through `crc32fast`.
+/// contexts. Eight shift steps per byte, so it is used only for the 60 checked
+/// header bytes; payloads go through `crc32fast`.
 pub(crate) const fn crc32_ieee(bytes: &[u8]) -> u32 {
     let mut crc = u32::MAX;
     let mut i = 0;
@@ -508,7 +697,13 @@ mod tests {
         }
         assert_eq!(Encoding::from_u8(3), None);
         assert_eq!(Compression::from_u8(3), None);
-        assert_eq!(ValueMap::from_u8(2), None);
+        assert_eq!(ValueMap::from_u8(3), None);
+        for b in 0..=255u8 {
+            if let Some(s) = Space::from_u8(b) {
+                assert_eq!(s.to_u8(), b);
+            }
+        }
+        assert_eq!(Space::from_u8(7), None);
         assert_eq!(ValueMap::Signed.apply(0.75), 0.5);
         assert_eq!(ValueMap::Unit.apply(0.75), 0.75);
     }

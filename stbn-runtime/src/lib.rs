@@ -23,7 +23,7 @@
 //!
 //! # Example
 //! ```
-//! use stbn_runtime::{Compression, Encoding, MaskHeader, SampleOffset, Stbn, ValueMap};
+//! use stbn_runtime::{Compression, Encoding, MaskHeader, SampleOffset, Space, Stbn, ValueMap};
 //!
 //! // Real code embeds a file written by the generator, e.g.
 //! //     static BYTES: &[u8] = include_bytes!("../assets/scalar_64.stbn");
@@ -36,6 +36,7 @@
 //!     encoding: Encoding::Unorm8,
 //!     compression: Compression::None,
 //!     value_map: ValueMap::Unit,
+//!     space: Space::Scalar,
 //!     payload_len: 16,
 //!     payload_crc32: 0xF15F_BCF8,
 //!     pdf_min: 0.0,
@@ -90,10 +91,12 @@ pub mod gpu;
 mod header;
 mod packed;
 mod sampler;
+mod vector;
 
 pub use error::Error;
-pub use header::{Compression, Encoding, MAX_DECODED_BYTES, MaskHeader, ValueMap};
+pub use header::{Compression, Encoding, MAX_DECODED_BYTES, MaskHeader, Space, ValueMap};
 #[cfg(feature = "alloc")]
 pub use packed::OwnedStbn;
 pub use packed::PackedStbn;
 pub use sampler::{SampleOffset, Stbn};
+pub use vector::{VectorSample, octahedral_decode, octahedral_encode};

@@ -328,6 +328,13 @@ impl<'a> Stbn<'a> {
 
     #[inline(always)]
     fn sample_at(&self, x: i32, y: i32, frame: u32, o: SampleOffset, channel: usize) -> f32 {
+        self.element(self.voxel(x, y, frame, o) + channel)
+    }
+
+    /// The element index of channel 0 of the voxel at `(x + o.x, y + o.y, frame + o.frame)`,
+    /// wrapped toroidally; that and the next `channels - 1` elements are in bounds.
+    #[inline(always)]
+    pub(crate) fn voxel(&self, x: i32, y: i32, frame: u32, o: SampleOffset) -> usize {
         let voxel = if self.all_pow2 {
             // Every axis length divides 2^32, so wrapping u32 sums keep the exact
             // residues; the packed index is < width*height*depth <= 2^31.
@@ -341,16 +348,32 @@ impl<'a> Stbn<'a> {
                 * self.header.width as usize
                 + self.x.wrap_signed(x, o.x)
         };
-        self.element(voxel * self.channels + channel)
+        voxel * self.channels
     }
 
     /// Decodes element `index` (< element count, so every access is in bounds).
     #[inline(always)]
-    fn element(&self, index: usize) -> f32 {
+    pub(crate) fn element(&self, index: usize) -> f32 {
         match self.header.encoding {
             Encoding::Unorm8 => unorm8(self.data[index]),
             Encoding::Unorm16 => unorm16(u16::from_le_bytes(self.bytes(index * 2))),
             Encoding::F32 => f32::from_le_bytes(self.bytes(index * 4)),
+        }
+    }
+
+    /// Decodes element `index` full-range, as the pdf channel is stored: Unorm `q` as
+    /// `q / (2^bits - 1)` (so 0 and 1 are exact), F32 as stored but clamped to `[0, 1]`
+    /// (NaN becomes 0).
+    #[inline(always)]
+    pub(crate) fn element_full_range(&self, index: usize) -> f32 {
+        match self.header.encoding {
+            Encoding::Unorm8 => f32::from(self.data[index]) / 255.0,
+            Encoding::Unorm16 => f32::from(u16::from_le_bytes(self.bytes(index * 2))) / 65535.0,
+            Encoding::F32 => {
+                let t = f32::from_le_bytes(self.bytes(index * 4));
+                // NaN fails the comparison and becomes 0.
+                if t >= 0.0 { t.min(1.0) } else { 0.0 }
+            }
         }
     }
 

@@ -1,7 +1,7 @@
 //! A blob assembled in const context and validated into a `static Stbn`, exactly
 //! as generated embedding code does.
 
-use stbn_runtime::{Compression, Encoding, Error, MaskHeader, PackedStbn, Stbn, ValueMap};
+use stbn_runtime::{Compression, Encoding, Error, MaskHeader, PackedStbn, Space, Stbn, ValueMap};
 
 const W: u32 = 8;
 const H: u32 = 4;
@@ -35,6 +35,7 @@ const HEADER: MaskHeader = MaskHeader {
     encoding: Encoding::Unorm8,
     compression: Compression::None,
     value_map: ValueMap::Unit,
+    space: Space::Scalar,
     payload_len: PAYLOAD_LEN as u32,
     payload_crc32: PAYLOAD_CRC,
     pdf_min: 0.0,

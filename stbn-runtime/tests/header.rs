@@ -4,13 +4,13 @@ mod common;
 
 use common::{Rng, blob, header, packed_blob, random_payload};
 use stbn_runtime::{
-    Compression, Encoding, Error, MAX_DECODED_BYTES, MaskHeader, PackedStbn, Stbn, ValueMap,
+    Compression, Encoding, Error, MAX_DECODED_BYTES, MaskHeader, PackedStbn, Space, Stbn, ValueMap,
 };
 
 /// Re-signs a header edited through raw bytes, so only the edited field is wrong.
 fn resign(bytes: &mut [u8]) {
-    let crc = crc32fast::hash(&bytes[..40]);
-    bytes[40..44].copy_from_slice(&crc.to_le_bytes());
+    let crc = crc32fast::hash(&bytes[..60]);
+    bytes[60..64].copy_from_slice(&crc.to_le_bytes());
 }
 
 /// A valid 3×5×2 two-channel Unorm16 blob.
@@ -39,20 +39,21 @@ fn header_round_trips_and_matches_the_documented_layout() {
         channels: 3,
         encoding: Encoding::F32,
         compression: Compression::Deflate,
-        value_map: ValueMap::Signed,
+        value_map: ValueMap::Octahedral,
+        space: Space::EnvironmentDirections,
         payload_len: 0x0A0B_0C0D,
         payload_crc32: 0xDEAD_BEEF,
-        pdf_min: -1.5,
+        pdf_min: 0.5,
         pdf_max: 2.25,
     };
     let b = h.to_bytes();
     assert_eq!(&b[0..4], b"STBN");
-    assert_eq!(u16::from_le_bytes([b[4], b[5]]), 1);
+    assert_eq!(u16::from_le_bytes([b[4], b[5]]), 2);
     assert_eq!(u16::from_le_bytes([b[6], b[7]]), 64);
     assert_eq!(u32::from_le_bytes(b[8..12].try_into().unwrap()), 11);
     assert_eq!(u32::from_le_bytes(b[12..16].try_into().unwrap()), 7);
     assert_eq!(u32::from_le_bytes(b[16..20].try_into().unwrap()), 9);
-    assert_eq!(&b[20..24], &[3, 2, 2, 1]);
+    assert_eq!(&b[20..24], &[3, 2, 2, 2]);
     assert_eq!(
         u32::from_le_bytes(b[24..28].try_into().unwrap()),
         0x0A0B_0C0D
@@ -61,14 +62,18 @@ fn header_round_trips_and_matches_the_documented_layout() {
         u32::from_le_bytes(b[28..32].try_into().unwrap()),
         0xDEAD_BEEF
     );
-    assert_eq!(f32::from_le_bytes(b[32..36].try_into().unwrap()), -1.5);
+    assert_eq!(f32::from_le_bytes(b[32..36].try_into().unwrap()), 0.5);
     assert_eq!(f32::from_le_bytes(b[36..40].try_into().unwrap()), 2.25);
+    assert_eq!(b[40], 6);
+    assert!(b[41..60].iter().all(|&x| x == 0));
     assert_eq!(
-        u32::from_le_bytes(b[40..44].try_into().unwrap()),
-        crc32fast::hash(&b[..40])
+        u32::from_le_bytes(b[60..64].try_into().unwrap()),
+        crc32fast::hash(&b[..60])
     );
-    assert!(b[44..].iter().all(|&x| x == 0));
     assert_eq!(MaskHeader::parse(&b), Ok(h));
+    // Three channels: the octahedral pair and the pdf; values have three components.
+    assert_eq!(h.value_channels(), 2);
+    assert_eq!(h.dims(), 3);
     assert_eq!(h.decoded_len(), 11 * 7 * 9 * 3 * 4);
     assert_eq!(h.element_count(), 11 * 7 * 9 * 3);
 
@@ -79,6 +84,9 @@ fn header_round_trips_and_matches_the_documented_layout() {
                     encoding,
                     compression,
                     value_map,
+                    space: Space::Vec,
+                    pdf_min: 0.0,
+                    pdf_max: 0.0,
                     channels: 4,
                     payload_len: 11 * 7 * 9 * 4 * encoding.bytes_per_element() as u32,
                     ..h
@@ -99,6 +107,7 @@ fn header_is_const_constructible_and_parsable() {
         encoding: Encoding::Unorm8,
         compression: Compression::None,
         value_map: ValueMap::Unit,
+        space: Space::Scalar,
         payload_len: 4,
         payload_crc32: 0,
         pdf_min: 0.0,
@@ -174,21 +183,15 @@ fn every_header_bit_flip_is_detected_with_the_right_error() {
             let err = all_reject(&bad);
             let ok = match i {
                 0..4 => err == Error::BadMagic,
-                4..6 => matches!(err, Error::UnsupportedVersion(v) if v != 1),
+                4..6 => matches!(err, Error::UnsupportedVersion(v) if v != 2),
                 6..8 => {
                     err == Error::InvalidField {
                         field: "header_len",
                         reason: "must be 64",
                     }
                 }
-                8..44 => err == Error::HeaderChecksum,
-                _ => matches!(
-                    err,
-                    Error::InvalidField {
-                        field: "reserved",
-                        ..
-                    }
-                ),
+                8..64 => err == Error::HeaderChecksum,
+                _ => unreachable!(),
             };
             assert!(ok, "byte {i} ^ {mask:#04x}: {err:?}");
         }
@@ -236,8 +239,8 @@ fn invalid(field: &'static str) -> impl Fn(Error) -> bool {
 #[test]
 fn each_field_range_is_enforced() {
     assert_eq!(
-        field_error(4, &2u16.to_le_bytes()),
-        Error::UnsupportedVersion(2)
+        field_error(4, &1u16.to_le_bytes()),
+        Error::UnsupportedVersion(1)
     );
     assert_eq!(
         field_error(4, &0u16.to_le_bytes()),
@@ -254,7 +257,21 @@ fn each_field_range_is_enforced() {
         assert!(invalid("encoding")(field_error(21, &[bad])));
         assert!(invalid("compression")(field_error(22, &[bad])));
     }
-    assert!(invalid("value_map")(field_error(23, &[2])));
+    assert!(invalid("value_map")(field_error(23, &[3])));
+    // Octahedral needs a 3D unit space; the sample blob is a two-channel scalar mask.
+    assert!(invalid("space")(field_error(23, &[2])));
+    assert!(invalid("space")(field_error(40, &[7])));
+    assert!(invalid("space")(field_error(40, &[255])));
+    // Two Signed channels are a circle, not a hemisphere (which needs 3) ...
+    assert!(invalid("space")(field_error(
+        40,
+        &[Space::CosineHemisphere.to_u8()]
+    )));
+    // ... and a space that stores a pdf needs a pdf range.
+    assert!(invalid("pdf_max")(field_error(
+        40,
+        &[Space::ImagePoints.to_u8()]
+    )));
     assert!(invalid("value_map")(field_error(23, &[255])));
     // payload_len must equal decoded_len (120) when uncompressed.
     assert!(invalid("payload_len")(field_error(
@@ -269,16 +286,27 @@ fn each_field_range_is_enforced() {
         assert!(invalid("pdf_min")(field_error(32, &bad.to_le_bytes())));
         assert!(invalid("pdf_max")(field_error(36, &bad.to_le_bytes())));
     }
-    // pdf_min > pdf_max
-    let mut bytes = sample_blob();
-    bytes[32..36].copy_from_slice(&2.0f32.to_le_bytes());
-    bytes[36..40].copy_from_slice(&1.0f32.to_le_bytes());
-    resign(&mut bytes);
-    assert!(invalid("pdf_max")(all_reject(&bytes)));
-    // Reserved bytes are outside the checksum and must be zero.
-    for i in 44..64 {
+    // A space without a stored pdf must have a zero range.
+    assert!(invalid("pdf_min")(field_error(36, &1.0f32.to_le_bytes())));
+    // An image space: 2 value channels + pdf = 3 channels, Unit values.
+    let image = |pdf_min: f32, pdf_max: f32| {
+        let h = header(3, 5, 2, 3, Encoding::Unorm8).with_space(
+            Space::ImagePoints,
+            ValueMap::Unit,
+            pdf_min,
+            pdf_max,
+        );
+        blob(h, &random_payload(&h, &mut Rng(9)))
+    };
+    assert!(Stbn::from_bytes(&image(0.0, 3.5)).is_ok());
+    assert!(invalid("pdf_max")(all_reject(&image(2.0, 1.0))));
+    assert!(invalid("pdf_max")(all_reject(&image(0.0, 0.0))));
+    assert!(invalid("pdf_min")(all_reject(&image(-1.0, 1.0))));
+    // Reserved bytes must be zero (re-signed, so this is the range check, not the CRC).
+    for i in 41..60 {
         let mut bytes = sample_blob();
         bytes[i] = 1;
+        resign(&mut bytes);
         assert!(invalid("reserved")(all_reject(&bytes)), "reserved byte {i}");
     }
     // Magic

@@ -9,7 +9,9 @@ use stbn_runtime::{PackedStbn, Stbn};
 /// Parses an uncompressed blob, samples it, and decodes it again into `buf`.
 ///
 /// Returns the sum of the sample at `(x, y, frame)` from the zero-copy view and
-/// from the decoded copy, or a negative value if the blob or buffer is invalid.
+/// from the decoded copy, plus the vector read's length and pdf (the octahedral decode
+/// and normalisation go through glam's `libm` path), or a negative value if the blob or
+/// buffer is invalid.
 ///
 /// # Safety
 /// `blob` must point to `blob_len` readable bytes and `buf` to `buf_len`
@@ -34,7 +36,8 @@ pub unsafe extern "C" fn stbn_check(
     let Ok(view) = Stbn::from_bytes(blob) else {
         return -1.0;
     };
-    let direct = view.sample_dim(x, y, frame, 1);
+    let vector = view.sample_vector(x, y, frame, view.dimension_offset(2));
+    let direct = view.sample_dim(x, y, frame, 1) + vector.value.length() + vector.pdf;
     let Ok(packed) = PackedStbn::from_bytes(blob) else {
         return -2.0;
     };

@@ -1,0 +1,202 @@
+//! Vector sampling: [`VectorSample`], the value maps applied to several channels, octahedral
+//! decoding and the pdf of every [`Space`].
+
+use core::f32::consts::PI;
+
+use glam::{Vec2, Vec3, Vec4};
+
+use crate::{SampleOffset, Space, Stbn, ValueMap};
+
+/// One vector read from a mask: the value and the density it was drawn with.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VectorSample {
+    /// The value's [`dims`](Stbn::dims) components (1..=4), mapped by the mask's
+    /// [`ValueMap`] and, for unit-vector spaces, normalised to length 1; unused components are 0.
+    pub value: Vec4,
+    /// The pdf the value was drawn from, at the value, in the space's measure (per unit volume
+    /// of `[0, 1)^n` for vectors and image points, per steradian for directions, per radian on
+    /// the circle, per sign for `±1`): stored for image spaces, derived otherwise (see
+    /// [`Space`]). Always finite and `>= 0`.
+    pub pdf: f32,
+}
+
+/// Decodes an octahedral-mapped unit vector from its two coordinates `e` in `[-1, 1]²`
+/// (Cigolle et al., "A Survey of Efficient Representations for Independent Unit Vectors",
+/// 2014). The result has length 1 (within `f32` rounding) for every input, including the
+/// corners and the fold lines.
+pub fn octahedral_decode(e: Vec2) -> Vec3 {
+    let z = 1.0 - e.x.abs() - e.y.abs();
+    let (x, y) = if z < 0.0 {
+        // The lower hemisphere was folded over the diagonals: unfold it.
+        (
+            (1.0 - e.y.abs()) * sign_not_zero(e.x),
+            (1.0 - e.x.abs()) * sign_not_zero(e.y),
+        )
+    } else {
+        (e.x, e.y)
+    };
+    // |x| + |y| + |z| >= 1 whatever the input, so the length is never zero.
+    Vec3::new(x, y, z).normalize()
+}
+
+/// Encodes a unit vector `n` as the octahedral coordinates in `[-1, 1]²` that
+/// [`octahedral_decode`] maps back to it. `n` must be non-zero; it need not be normalised.
+pub fn octahedral_encode(n: Vec3) -> Vec2 {
+    let p = n / (n.x.abs() + n.y.abs() + n.z.abs());
+    if p.z < 0.0 {
+        Vec2::new(
+            (1.0 - p.y.abs()) * sign_not_zero(p.x),
+            (1.0 - p.x.abs()) * sign_not_zero(p.y),
+        )
+    } else {
+        Vec2::new(p.x, p.y)
+    }
+}
+
+/// `1.0` for `v >= 0` (`-0.0` included, as it compares equal to 0), `-1.0` otherwise.
+fn sign_not_zero(v: f32) -> f32 {
+    if v >= 0.0 { 1.0 } else { -1.0 }
+}
+
+impl Stbn<'_> {
+    /// What the values are samples of.
+    pub const fn space(&self) -> Space {
+        self.header().space
+    }
+
+    /// Components of one value: 1..=4 (3 for octahedral-encoded directions).
+    pub const fn dims(&self) -> u8 {
+        self.header().dims()
+    }
+
+    /// The vector at `(x + offset.x, y + offset.y, frame + offset.frame)`, wrapped
+    /// toroidally like [`sample_with`](Self::sample_with), with its pdf.
+    ///
+    /// Works for every mask: a scalar mask gives `(u, 0, 0, 0)` with pdf 1.
+    pub fn sample_vector(&self, x: i32, y: i32, frame: u32, offset: SampleOffset) -> VectorSample {
+        let header = self.header();
+        let voxel = self.voxel(x, y, frame, offset);
+        let map = header.value_map;
+        let mut raw = [0.0f32; 4];
+        for (c, r) in raw
+            .iter_mut()
+            .enumerate()
+            .take(usize::from(header.value_channels()))
+        {
+            *r = map.apply(self.element(voxel + c));
+        }
+        let space = header.space;
+        let value = match map {
+            ValueMap::Octahedral => octahedral_decode(Vec2::new(raw[0], raw[1])).extend(0.0),
+            _ if space.is_unit() => normalise_or_keep(Vec4::from_array(raw)),
+            _ => Vec4::from_array(raw),
+        };
+        let pdf = if space.stores_pdf() {
+            let t = self.element_full_range(voxel + usize::from(header.channels) - 1);
+            // t in [0, 1], so the result lies in [pdf_min, pdf_max] (both finite, >= 0).
+            (header.pdf_min + t * (header.pdf_max - header.pdf_min)).max(0.0)
+        } else {
+            derived_pdf(space, map, header.dims(), value)
+        };
+        VectorSample { value, pdf }
+    }
+
+    /// The first two components at `(x, y, frame)` (see [`sample_vector`](Self::sample_vector)).
+    #[inline]
+    pub fn sample_vec2(&self, x: i32, y: i32, frame: u32) -> Vec2 {
+        self.sample_vector(x, y, frame, SampleOffset::ZERO)
+            .value
+            .truncate()
+            .truncate()
+    }
+
+    /// The first three components at `(x, y, frame)`: a unit vector for direction masks.
+    #[inline]
+    pub fn sample_vec3(&self, x: i32, y: i32, frame: u32) -> Vec3 {
+        self.sample_vector(x, y, frame, SampleOffset::ZERO)
+            .value
+            .truncate()
+    }
+
+    /// All four components at `(x, y, frame)`.
+    #[inline]
+    pub fn sample_vec4(&self, x: i32, y: i32, frame: u32) -> Vec4 {
+        self.sample_vector(x, y, frame, SampleOffset::ZERO).value
+    }
+
+    /// The pdf of the value at `(x, y, frame)` (see [`VectorSample::pdf`]).
+    #[inline]
+    pub fn sample_pdf(&self, x: i32, y: i32, frame: u32) -> f32 {
+        self.sample_vector(x, y, frame, SampleOffset::ZERO).pdf
+    }
+}
+
+/// `v / |v|`, or `v` unchanged if it is zero (a quantised `±1` or circle value never is; the
+/// guard keeps hand-made blobs from producing NaN).
+fn normalise_or_keep(v: Vec4) -> Vec4 {
+    if v.length_squared() > 0.0 {
+        v.normalize()
+    } else {
+        v
+    }
+}
+
+/// The pdf of spaces that do not store one, at `value` (already mapped and normalised).
+fn derived_pdf(space: Space, map: ValueMap, dims: u8, value: Vec4) -> f32 {
+    match space {
+        Space::Scalar => 1.0,
+        Space::Vec => match map {
+            // Uniform on [-1, 1]^n: density 2^-n.
+            ValueMap::Signed => 1.0 / f32::from(1u8 << dims.min(4)),
+            _ => 1.0,
+        },
+        Space::UnitVec => match dims {
+            1 => 0.5,
+            2 => 1.0 / (2.0 * PI),
+            _ => 1.0 / (4.0 * PI),
+        },
+        Space::UniformHemisphere => 1.0 / (2.0 * PI),
+        Space::CosineHemisphere => value.z.max(0.0) / PI,
+        // Parsing guarantees these store their pdf; keep the function total anyway.
+        Space::ImagePoints | Space::EnvironmentDirections => 0.0,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn octahedral_round_trips_on_a_sphere_grid() {
+        for i in 0..64 {
+            for j in 0..128 {
+                let theta = (i as f32 + 0.5) / 64.0 * PI;
+                let phi = j as f32 / 128.0 * 2.0 * PI;
+                let n = Vec3::new(
+                    theta.sin() * phi.cos(),
+                    theta.sin() * phi.sin(),
+                    theta.cos(),
+                );
+                let e = octahedral_encode(n);
+                assert!(e.x.abs() <= 1.0 && e.y.abs() <= 1.0);
+                let back = octahedral_decode(e);
+                assert!((back - n).length() < 1e-5, "{n} -> {e} -> {back}");
+            }
+        }
+    }
+
+    #[test]
+    fn octahedral_decode_is_unit_everywhere() {
+        for i in 0..=40 {
+            for j in 0..=40 {
+                let e = Vec2::new(i as f32 / 20.0 - 1.0, j as f32 / 20.0 - 1.0);
+                let n = octahedral_decode(e);
+                assert!((n.length() - 1.0).abs() < 1e-6, "{e} -> {n}");
+            }
+        }
+        // The poles and the corners.
+        assert_eq!(octahedral_decode(Vec2::ZERO), Vec3::Z);
+        assert!((octahedral_decode(Vec2::new(1.0, 1.0)) - Vec3::NEG_Z).length() < 1e-6);
+        assert!((octahedral_decode(Vec2::new(-1.0, -1.0)) - Vec3::NEG_Z).length() < 1e-6);
+    }
+}

@@ -1,0 +1,244 @@
+//! Vector sampling: value maps, octahedral directions, normalisation and pdfs of every space.
+
+mod common;
+
+use core::f32::consts::PI;
+
+use common::{Rng, blob};
+use glam::{Vec2, Vec3, Vec4};
+use stbn_runtime::{
+    Encoding, MaskHeader, SampleOffset, Space, Stbn, ValueMap, octahedral_decode, octahedral_encode,
+};
+
+/// Quantises `u` in `[0, 1]` to the Unorm8 bin the encoder uses (`floor(u · 256)`, clamped).
+fn q8(u: f32) -> u8 {
+    (u * 256.0).floor().clamp(0.0, 255.0) as u8
+}
+
+/// A `w × h × d` Unorm8 blob whose voxel `i` holds `texel(i)` (one byte per channel).
+fn mask(header: MaskHeader, texel: impl Fn(usize) -> Vec<u8>) -> Vec<u8> {
+    let voxels = (header.width * header.height * header.depth) as usize;
+    let payload: Vec<u8> = (0..voxels).flat_map(texel).collect();
+    assert_eq!(payload.len(), header.decoded_len());
+    blob(header, &payload)
+}
+
+/// Random unit vectors, uniform on the sphere.
+fn directions(n: usize, seed: u64) -> Vec<Vec3> {
+    let mut rng = Rng(seed);
+    (0..n)
+        .map(|_| {
+            let u = (rng.next_u32() as f32 + 0.5) / 4_294_967_296.0;
+            let v = (rng.next_u32() as f32 + 0.5) / 4_294_967_296.0;
+            let z = 1.0 - 2.0 * u;
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            let phi = 2.0 * PI * v;
+            Vec3::new(r * phi.cos(), r * phi.sin(), z)
+        })
+        .collect()
+}
+
+#[test]
+fn octahedral_direction_masks_decode_to_unit_vectors_near_the_originals() {
+    let (w, h, d) = (8, 4, 3);
+    let dirs = directions(w * h * d, 11);
+    for encoding in [Encoding::Unorm8, Encoding::Unorm16] {
+        let header = MaskHeader::new(w as u32, h as u32, d as u32, 2, encoding).with_space(
+            Space::UnitVec,
+            ValueMap::Octahedral,
+            0.0,
+            0.0,
+        );
+        let payload: Vec<u8> = dirs
+            .iter()
+            .flat_map(|&n| {
+                let e = octahedral_encode(n) * 0.5 + 0.5;
+                match encoding {
+                    Encoding::Unorm8 => vec![q8(e.x), q8(e.y)],
+                    _ => [e.x, e.y]
+                        .iter()
+                        .flat_map(|&u| ((u * 65536.0).floor().min(65535.0) as u16).to_le_bytes())
+                        .collect(),
+                }
+            })
+            .collect();
+        let bytes = blob(header, &payload);
+        let stbn = Stbn::from_bytes(&bytes).unwrap();
+        assert_eq!(stbn.dims(), 3);
+        // Octahedral bins are at most ~2.2/bins wide in angle.
+        let tolerance = if encoding == Encoding::Unorm8 {
+            0.02
+        } else {
+            1e-4
+        };
+        for (i, &n) in dirs.iter().enumerate() {
+            let (x, y, z) = (i % w, i / w % h, i / (w * h));
+            let v = stbn.sample_vec3(x as i32, y as i32, z as u32);
+            assert!((v.length() - 1.0).abs() < 1e-6, "not unit: {v}");
+            assert!((v - n).length() < tolerance, "{encoding:?} {n} read as {v}");
+            let s = stbn.sample_vector(x as i32, y as i32, z as u32, SampleOffset::ZERO);
+            assert_eq!(s.pdf, 1.0 / (4.0 * PI));
+            assert_eq!(s.value.w, 0.0);
+        }
+    }
+}
+
+#[test]
+fn signed_unit_vectors_are_normalised_and_circles_have_their_pdf() {
+    let header = MaskHeader::new(5, 3, 2, 2, Encoding::Unorm8).with_space(
+        Space::UnitVec,
+        ValueMap::Signed,
+        0.0,
+        0.0,
+    );
+    let angle = |i: usize| i as f32 * 0.37;
+    let bytes = mask(header, |i| {
+        let (s, c) = angle(i).sin_cos();
+        vec![q8(c * 0.5 + 0.5), q8(s * 0.5 + 0.5)]
+    });
+    let stbn = Stbn::from_bytes(&bytes).unwrap();
+    for i in 0..30 {
+        let (x, y, z) = (i % 5, i / 5 % 3, i / 15);
+        let v = stbn.sample_vec2(x as i32, y as i32, z as u32);
+        assert!((v.length() - 1.0).abs() < 1e-6);
+        let (s, c) = angle(i).sin_cos();
+        assert!((v - Vec2::new(c, s)).length() < 0.02, "{v}");
+        assert_eq!(stbn.sample_pdf(x as i32, y as i32, z as u32), 0.5 / PI);
+    }
+}
+
+#[test]
+fn cosine_hemisphere_pdf_is_z_over_pi_and_uniform_is_constant() {
+    let dirs: Vec<Vec3> = directions(4 * 4 * 2, 5)
+        .into_iter()
+        .map(|n| Vec3::new(n.x, n.y, n.z.abs()))
+        .collect();
+    for space in [Space::CosineHemisphere, Space::UniformHemisphere] {
+        let header = MaskHeader::new(4, 4, 2, 3, Encoding::F32).with_space(
+            space,
+            ValueMap::Signed,
+            0.0,
+            0.0,
+        );
+        let payload: Vec<u8> = dirs
+            .iter()
+            .flat_map(|n| (*n * 0.5 + 0.5).to_array())
+            .flat_map(f32::to_le_bytes)
+            .collect();
+        let bytes = blob(header, &payload);
+        let stbn = Stbn::from_bytes(&bytes).unwrap();
+        for (i, n) in dirs.iter().enumerate() {
+            let s = stbn.sample_vector(
+                (i % 4) as i32,
+                (i / 4 % 4) as i32,
+                (i / 16) as u32,
+                SampleOffset::ZERO,
+            );
+            assert!((s.value.truncate() - *n).length() < 1e-6);
+            let expected = if space == Space::CosineHemisphere {
+                s.value.z / PI
+            } else {
+                0.5 / PI
+            };
+            assert_eq!(s.pdf, expected);
+        }
+    }
+}
+
+#[test]
+fn stored_pdfs_hit_their_range_exactly_and_wrap_like_values() {
+    let (pdf_min, pdf_max) = (0.25f32, 7.5f32);
+    for encoding in [Encoding::Unorm8, Encoding::Unorm16, Encoding::F32] {
+        let header = MaskHeader::new(4, 2, 2, 3, encoding).with_space(
+            Space::ImagePoints,
+            ValueMap::Unit,
+            pdf_min,
+            pdf_max,
+        );
+        // Voxel i: point (i/16, 1 - i/16), normalised pdf t = i / 15.
+        let t = |i: usize| i as f32 / 15.0;
+        let element = |u: f32, full_range: bool| -> Vec<u8> {
+            match (encoding, full_range) {
+                (Encoding::Unorm8, false) => vec![q8(u)],
+                (Encoding::Unorm8, true) => vec![(u * 255.0).round() as u8],
+                (Encoding::Unorm16, false) => ((u * 65536.0).floor() as u16).to_le_bytes().to_vec(),
+                (Encoding::Unorm16, true) => ((u * 65535.0).round() as u16).to_le_bytes().to_vec(),
+                (Encoding::F32, _) => u.to_le_bytes().to_vec(),
+            }
+        };
+        let payload: Vec<u8> = (0..16)
+            .flat_map(|i| {
+                let p = i as f32 / 16.0;
+                [
+                    element(p, false),
+                    element(1.0 - p - 1.0 / 32.0, false),
+                    element(t(i), true),
+                ]
+                .concat()
+            })
+            .collect();
+        let bytes = blob(header, &payload);
+        let stbn = Stbn::from_bytes(&bytes).unwrap();
+        assert_eq!(stbn.dims(), 2);
+        assert_eq!(stbn.sample_pdf(0, 0, 0), pdf_min, "{encoding:?}");
+        assert_eq!(stbn.sample_pdf(3, 1, 1), pdf_max, "{encoding:?}");
+        for i in 0..16 {
+            let (x, y, z) = ((i % 4) as i32, (i / 4 % 2) as i32, (i / 8) as u32);
+            let s = stbn.sample_vector(x, y, z, SampleOffset::ZERO);
+            let pdf = pdf_min + t(i) * (pdf_max - pdf_min);
+            assert!((s.pdf - pdf).abs() <= 1e-5 * pdf_max, "{encoding:?} {i}");
+            // Not normalised: image points are not unit vectors.
+            assert!((s.value.x - i as f32 / 16.0).abs() <= 1.0 / 256.0);
+            // Toroidal like every other read.
+            let wrapped = stbn.sample_vector(x - 4 * 1000, y + 2 * 77, z + 2, SampleOffset::ZERO);
+            assert_eq!(wrapped, s);
+            assert_eq!(
+                stbn.sample_vector(0, 0, 0, SampleOffset { x, y, frame: z }),
+                s
+            );
+        }
+    }
+}
+
+#[test]
+fn scalar_masks_read_as_vectors_give_the_scalar_and_pdf_one() {
+    let header = MaskHeader::new(3, 3, 3, 1, Encoding::Unorm8);
+    let bytes = mask(header, |i| vec![(i * 9) as u8]);
+    let stbn = Stbn::from_bytes(&bytes).unwrap();
+    for (x, y, f) in [(0, 0, 0), (-1, 5, 7), (i32::MIN, i32::MAX, u32::MAX)] {
+        let v = stbn.sample_vec4(x, y, f);
+        assert_eq!(v, Vec4::new(stbn.sample(x, y, f), 0.0, 0.0, 0.0));
+        assert_eq!(stbn.sample_pdf(x, y, f), 1.0);
+    }
+}
+
+#[test]
+fn signed_vec_masks_have_pdf_two_to_the_minus_n() {
+    let header = MaskHeader::new(2, 2, 1, 3, Encoding::Unorm8).with_space(
+        Space::Vec,
+        ValueMap::Signed,
+        0.0,
+        0.0,
+    );
+    let bytes = mask(header, |i| vec![i as u8 * 60, 128, 255]);
+    let stbn = Stbn::from_bytes(&bytes).unwrap();
+    let s = stbn.sample_vector(1, 0, 0, SampleOffset::ZERO);
+    assert_eq!(s.pdf, 0.125);
+    // Not normalised: (60 + 0.5)/256·2 - 1, (128.5/256)·2 - 1, (255.5/256)·2 - 1.
+    let expected = Vec3::new(60.5 / 128.0 - 1.0, 128.5 / 128.0 - 1.0, 255.5 / 128.0 - 1.0);
+    assert!((s.value.truncate() - expected).length() < 1e-6);
+}
+
+#[test]
+fn octahedral_decode_never_returns_nan_for_any_stored_byte_pair() {
+    for a in 0..=255u8 {
+        for b in 0..=255u8 {
+            let e = Vec2::new(
+                (f32::from(a) + 0.5) / 128.0 - 1.0,
+                (f32::from(b) + 0.5) / 128.0 - 1.0,
+            );
+            let n = octahedral_decode(e);
+            assert!(n.is_finite() && (n.length() - 1.0).abs() < 1e-6, "{a} {b}");
+        }
+    }
+}
