@@ -60,9 +60,11 @@ use std::vec::Vec;
 
 use crate::{Encoding, Stbn};
 
-/// The WGSL sampling snippet (`stbn.wgsl`): the `StbnParams` struct and the
+/// The WGSL sampling snippet (`stbn.wgsl`): the `StbnParams` struct, the
 /// `stbn_wrap`, `stbn_texel`, `stbn_decode`, `stbn_sample_3d` and `stbn_sample_2d_array`
-/// functions. Declares no bindings; prepend it to a shader module's source.
+/// functions, and the vector helpers `stbn_signed`, `stbn_octahedral` and `stbn_stored_pdf`
+/// that turn a sample into what [`Stbn::sample_vector`] returns. Declares no bindings;
+/// prepend it to a shader module's source.
 pub const WGSL: &str = include_str!("stbn.wgsl");
 
 /// How [`create_texture_3d`] / [`create_texture_2d_array`] create the texture.

@@ -109,3 +109,45 @@ fn stbn_sample_2d_array(
     let t = stbn_texel(p, x, y, frame, offset_xy, offset_frame, dim_offset);
     return stbn_decode(textureLoad(tex, t.xy, t.z, 0), p.decode);
 }
+
+// ---- Vectors: what Stbn::sample_vector does on the CPU ----
+// Apply these to the vec4 s returned by stbn_sample_3d / stbn_sample_2d_array, as the
+// mask's header says (space and value map are fixed per mask, so pick them when writing
+// the shader):
+//   value map Unit (Space Scalar, Vec, ImagePoints): s itself;
+//   value map Signed: stbn_signed(s), then normalize() the value components for unit
+//     spaces (UnitVec, hemispheres, environment directions);
+//   value map Octahedral (3D directions in .xy): stbn_octahedral(s.xy);
+//   stored pdf (ImagePoints: .z; EnvironmentDirections: .z when octahedral, .w when signed):
+//     stbn_stored_pdf(that component, bits, header.pdf_min, header.pdf_max), with bits the
+//     mask's encoding: 8 (Unorm8), 16 (Unorm16, whichever texture format it got) or 0 (F32).
+// Derivable pdfs are as on the CPU: cosine hemisphere max(z, 0) / pi, uniform hemisphere
+// 1 / (2 pi), unit sphere 1 / (4 pi), circle 1 / (2 pi).
+
+// Each component c in [0, 1) to 2c - 1 in [-1, 1).
+fn stbn_signed(s: vec4<f32>) -> vec4<f32> {
+    return s * 2.0 - 1.0;
+}
+
+// The unit vector whose octahedral map is stored (as unit values) in s.
+fn stbn_octahedral(s: vec2<f32>) -> vec3<f32> {
+    let e = s * 2.0 - 1.0;
+    var n = vec3<f32>(e.x, e.y, 1.0 - abs(e.x) - abs(e.y));
+    if n.z < 0.0 {
+        let sign_xy = select(vec2<f32>(-1.0), vec2<f32>(1.0), e >= vec2<f32>(0.0));
+        n = vec3<f32>((1.0 - abs(e.yx)) * sign_xy, n.z);
+    }
+    return normalize(n);
+}
+
+// The pdf from the stored pdf channel's sampled value c: the channel is stored full-range
+// (q / (2^bits - 1)), while sampling returns the bin midpoint (q + 0.5) / 2^bits.
+fn stbn_stored_pdf(c: f32, bits: u32, pdf_min: f32, pdf_max: f32) -> f32 {
+    var t = c;
+    if bits == 8u {
+        t = (c * 256.0 - 0.5) / 255.0;
+    } else if bits == 16u {
+        t = (c * 65536.0 - 0.5) / 65535.0;
+    }
+    return max(pdf_min + clamp(t, 0.0, 1.0) * (pdf_max - pdf_min), 0.0);
+}

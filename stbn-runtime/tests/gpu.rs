@@ -6,7 +6,7 @@ mod common;
 
 use common::{Rng, blob, header};
 use stbn_runtime::gpu::{self, GpuError, ShaderParams, TextureOptions};
-use stbn_runtime::{Encoding, SampleOffset, Stbn};
+use stbn_runtime::{Encoding, SampleOffset, Space, Stbn, ValueMap};
 use wgpu::util::DeviceExt;
 
 struct Gpu {
@@ -288,6 +288,11 @@ struct Sampler {
 }
 
 fn sampler(g: &Gpu, kind: Kind) -> Sampler {
+    sampler_with(g, kind, "s")
+}
+
+/// A sampler whose result is the WGSL expression `result` of the sample `s` (a `vec4<f32>`).
+fn sampler_with(g: &Gpu, kind: Kind, result: &str) -> Sampler {
     let (texture_type, function, view_dimension) = match kind {
         Kind::D3 => (
             "texture_3d<f32>",
@@ -315,8 +320,9 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {{
         return;
     }}
     let q = queries[i];
-    results[i] = {function}(mask, params, q.x, q.y, q.frame, vec2<i32>(q.ox, q.oy), q.oframe,
+    let s = {function}(mask, params, q.x, q.y, q.frame, vec2<i32>(q.ox, q.oy), q.oframe,
         vec2<i32>(q.dx, q.dy));
+    results[i] = {result};
 }}
 ",
         gpu::WGSL
@@ -616,4 +622,79 @@ fn shader_params_layout_matches_the_wgsl_struct() {
     let b = p.to_bytes();
     assert_eq!(b.len() as u64, ShaderParams::SIZE);
     assert_eq!(b, [7, 0, 0, 0, 5, 0, 0, 0, 3, 0, 0, 0, 2, 0, 0, 0]);
+}
+
+/// The WGSL vector helpers (`stbn_octahedral`, `stbn_signed` + `normalize`,
+/// `stbn_stored_pdf`) give what `Stbn::sample_vector` gives on the CPU, for environment
+/// direction masks (octahedral pair + pdf) and signed hemisphere masks, in every encoding,
+/// with and without 16-bit norm formats.
+#[test]
+fn vulkan_vector_helpers_match_sample_vector() {
+    for norm16 in [Norm16::Require, Norm16::Off] {
+        let g = gpu(wgpu::Backends::VULKAN, norm16);
+        for encoding in ALL {
+            let bits = match encoding {
+                Encoding::Unorm8 => 8,
+                Encoding::Unorm16 => 16,
+                Encoding::F32 => 0,
+            };
+            let (pdf_min, pdf_max) = (0.03125f32, 9.5f32);
+            let cases = [
+                (
+                    header(7, 5, 3, 3, encoding).with_space(
+                        Space::EnvironmentDirections,
+                        ValueMap::Octahedral,
+                        pdf_min,
+                        pdf_max,
+                    ),
+                    format!(
+                        "vec4<f32>(stbn_octahedral(s.xy), \
+                         stbn_stored_pdf(s.z, {bits}u, {pdf_min:?}, {pdf_max:?}))"
+                    ),
+                ),
+                (
+                    header(8, 4, 4, 3, encoding).with_space(
+                        Space::CosineHemisphere,
+                        ValueMap::Signed,
+                        0.0,
+                        0.0,
+                    ),
+                    "vec4<f32>(normalize(stbn_signed(s).xyz), 0.0)".to_owned(),
+                ),
+            ];
+            for (hd, expr) in cases {
+                let source = mask_blob(hd.width, hd.height, hd.depth, 3, encoding, 99);
+                // Same payload, now declared as the vector space.
+                let bytes = blob(hd, &source[64..]);
+                let mask = Stbn::from_bytes(&bytes).expect("valid vector mask");
+                let s = sampler_with(&g, Kind::D3, &expr);
+                let texture = upload(&g, &mask, Kind::D3);
+                let qs = queries(&mask, 5);
+                let got = gpu_values(&g, &s, &texture, &qs);
+                for (q, v) in qs.iter().zip(&got) {
+                    let mut offset = q.offset;
+                    offset.x = (i64::from(offset.x) + i64::from(q.dim.x))
+                        .rem_euclid(i64::from(mask.width())) as i32;
+                    offset.y = (i64::from(offset.y) + i64::from(q.dim.y))
+                        .rem_euclid(i64::from(mask.height())) as i32;
+                    let cpu = mask.sample_vector(q.x, q.y, q.frame, offset);
+                    let what = format!("{:?} {encoding:?} {q:?} on {}", hd.space, g.name);
+                    for c in 0..3 {
+                        assert!(
+                            (v[c] - cpu.value[c]).abs() <= 2e-6,
+                            "{what}: component {c} GPU {v:?} CPU {cpu:?}"
+                        );
+                    }
+                    if hd.space.stores_pdf() {
+                        assert!(
+                            (v[3] - cpu.pdf).abs() <= 1e-5 * pdf_max,
+                            "{what}: pdf GPU {} CPU {}",
+                            v[3],
+                            cpu.pdf
+                        );
+                    }
+                }
+            }
+        }
+    }
 }
