@@ -1,7 +1,7 @@
 //! Generator speed: scalar STBN at the sizes BENCHMARKS.md reports.
 //!
 //! `cargo bench -p stbn-gen --bench generate`
-//! (set `STBN_BENCH_LARGE=1` to add 256×256×128, which takes tens of seconds per sample).
+//! (set `STBN_BENCH_LARGE=1` to add 256×256×128, about 15 s per sample on the 2-core VM).
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use stbn_gen::{EnergyTopology, MaskSpec, generate};

@@ -15,13 +15,25 @@ use crate::spec::{EnergyTopology, MaskSpec};
 /// weights sum below [`EnergyKernel::MAX_TOTAL`].
 pub type Weight = u32;
 
-/// Receives the taps of one splat: [`EnergyKernel::for_each_tap`] calls `visit(index, weight)`.
+/// Receives the taps of one splat: [`EnergyKernel::for_each_tap`] calls `visit_run(start,
+/// weights)` for each run of taps that are consecutive in memory and `visit(index, weight)` for
+/// each lone tap; the default `visit_run` calls `visit` for each of its taps.
 ///
 /// A trait rather than a closure so hot visitors can force inlining into both of the kernel's row
-/// loops. Every `FnMut(usize, Weight)` is one.
+/// loops, and can handle a whole run at once (a vectorised add, one check per extremum-tree leaf
+/// instead of one per tap). Every `FnMut(usize, Weight)` is one.
 pub trait TapVisitor {
     /// One tap: the pixel at `index` receives `weight`.
     fn visit(&mut self, index: usize, weight: Weight);
+
+    /// `weights.len()` taps on consecutive pixels: the pixel at `start + k` receives `weights[k]`.
+    /// The run never crosses the end of an image row.
+    #[inline(always)]
+    fn visit_run(&mut self, start: usize, weights: &[Weight]) {
+        for (k, &weight) in weights.iter().enumerate() {
+            self.visit(start + k, weight);
+        }
+    }
 }
 
 impl<F: FnMut(usize, Weight)> TapVisitor for F {
@@ -31,17 +43,27 @@ impl<F: FnMut(usize, Weight)> TapVisitor for F {
     }
 }
 
-/// Taps sharing one row offset `(dy, dz)`.
+/// A run of taps with consecutive `dx` sharing one row offset `(dy, dz)`: offsets
+/// `(dx + k, dy, dz)` receive `weights[first + k]` for `k < len`.
 ///
 /// Offsets are the canonical representatives of their toroidal class, in
 /// `(-size/2, size/2]`: the natural signed offsets when the kernel does not wrap onto itself, so
-/// a target coordinate needs at most one wrap correction.
-#[derive(Clone, Debug)]
-struct KernelRow {
+/// a target coordinate needs at most one wrap correction. A run has at most `width` taps (its
+/// offsets are distinct modulo `width`), so it wraps around a row at most once.
+#[derive(Clone, Copy, Debug)]
+struct KernelRun {
+    dx: i32,
     dy: i32,
     dz: i32,
-    /// `(dx, weight)`.
-    taps: Vec<(i32, Weight)>,
+    /// `(dz · height + dy) · width + dx`: the index offset of the run's first tap when no
+    /// coordinate wraps.
+    offset: isize,
+    /// `dy · width + dx`: the offset within the target slice when x and y do not wrap.
+    slice_offset: isize,
+    /// First weight in [`EnergyKernel::weights`].
+    first: u32,
+    /// Number of taps, `>= 1`.
+    len: u32,
 }
 
 /// The truncated, wrapped, fixed-point kernel of one [`MaskSpec`].
@@ -54,11 +76,22 @@ pub struct EnergyKernel {
     width: u32,
     height: u32,
     depth: u32,
-    rows: Vec<KernelRow>,
+    /// Runs of two taps or more, in `(dz, dy, dx)` order.
+    runs: Vec<KernelRun>,
+    /// Runs of a single tap (the temporal column of the spatiotemporal kernel): visited one by
+    /// one, without a run's loop.
+    single_taps: Vec<KernelRun>,
+    /// The runs' weights, run after run.
+    weights: Vec<Weight>,
     /// Smallest and largest `dx` of any tap: pixels with `x` in `-min_dx..width - max_dx` need no
     /// x wrapping.
     min_dx: i32,
     max_dx: i32,
+    /// The same for `dy` and `dz`: pixels inside all three ranges splat at fixed index offsets.
+    min_dy: i32,
+    max_dy: i32,
+    min_dz: i32,
+    max_dz: i32,
     total: u64,
 }
 
@@ -147,6 +180,8 @@ impl EnergyKernel {
             scale *= 0.99;
         }
 
+        // `folded` iterates in (dx, dy, dz) order: regroup by row, then split each row into runs
+        // of consecutive dx.
         let mut rows: BTreeMap<(i32, i32), Vec<(i32, Weight)>> = BTreeMap::new();
         let mut total = 0u64;
         for (&(dx, dy, dz), &v) in &folded {
@@ -156,26 +191,56 @@ impl EnergyKernel {
                 .or_default()
                 .push((dx, weight as Weight));
         }
-        let rows: Vec<KernelRow> = rows
-            .into_iter()
-            .map(|((dz, dy), taps)| KernelRow { dy, dz, taps })
-            .collect();
-        let dxs = || rows.iter().flat_map(|r| r.taps.iter().map(|&(dx, _)| dx));
-        let (min_dx, max_dx) = (dxs().min().unwrap_or(0), dxs().max().unwrap_or(0));
+        let mut runs: Vec<KernelRun> = Vec::new();
+        let mut weights: Vec<Weight> = Vec::new();
+        for ((dz, dy), taps) in rows {
+            for (k, &(dx, weight)) in taps.iter().enumerate() {
+                let extends = k > 0 && taps[k - 1].0 + 1 == dx;
+                match runs.last_mut() {
+                    Some(run) if extends => run.len += 1,
+                    _ => runs.push(KernelRun {
+                        dx,
+                        dy,
+                        dz,
+                        offset: (dz as isize * h as isize + dy as isize) * w as isize + dx as isize,
+                        slice_offset: dy as isize * w as isize + dx as isize,
+                        first: weights.len() as u32,
+                        len: 1,
+                    }),
+                }
+                weights.push(weight);
+            }
+        }
+        let (single_taps, runs): (Vec<KernelRun>, Vec<KernelRun>) =
+            runs.into_iter().partition(|run| run.len == 1);
+        let all = || runs.iter().chain(&single_taps);
+        let min_dx = all().map(|r| r.dx).min().unwrap_or(0);
+        let max_dx = all().map(|r| r.dx + r.len as i32 - 1).max().unwrap_or(0);
+        let extent = |axis: fn(&KernelRun) -> i32| {
+            let values = || all().map(axis);
+            (values().min().unwrap_or(0), values().max().unwrap_or(0))
+        };
+        let ((min_dy, max_dy), (min_dz, max_dz)) = (extent(|r| r.dy), extent(|r| r.dz));
         EnergyKernel {
             width: w,
             height: h,
             depth: d,
-            rows,
+            runs,
+            single_taps,
+            weights,
             min_dx,
             max_dx,
+            min_dy,
+            max_dy,
+            min_dz,
+            max_dz,
             total,
         }
     }
 
     /// Number of distinct wrapped offsets a splat touches (the footprint).
     pub fn taps(&self) -> usize {
-        self.rows.iter().map(|r| r.taps.len()).sum()
+        self.weights.len()
     }
 
     /// Sum of all fixed-point weights: the energy of a pixel when every pixel is on.
@@ -183,40 +248,87 @@ impl EnergyKernel {
         self.total
     }
 
-    /// Calls `visit(index, weight)` for every pixel the pixel at `(x, y, z)` sends energy to,
-    /// itself included. `index` is `(z * height + y) * width + x` after wrapping.
+    /// Calls `visitor` for every pixel the pixel at `(x, y, z)` sends energy to, itself included:
+    /// one [`TapVisitor::visit_run`] per run of consecutive pixels and one [`TapVisitor::visit`]
+    /// per lone tap, in no particular order. An index is `(z * height + y) * width + x` after
+    /// wrapping.
+    ///
+    /// Centres whose footprint wraps on no axis (most of a large volume) get each run's index as a
+    /// fixed offset from their own; near the first and last frames only z is wrapped.
     ///
     /// `x < width`, `y < height`, `z < depth`.
     #[inline(always)]
     pub fn for_each_tap(&self, x: u32, y: u32, z: u32, visitor: &mut impl TapVisitor) {
-        let wrap = |t: i32, size: u32| {
-            if t < 0 {
-                t + size as i32
-            } else if t >= size as i32 {
-                t - size as i32
-            } else {
-                t
-            }
-        };
         let (w, h, d) = (self.width, self.height, self.depth);
         let (x, y, z) = (x as i32, y as i32, z as i32);
-        let interior = x + self.min_dx >= 0 && x + self.max_dx < w as i32;
-        for row in &self.rows {
-            let ty = wrap(y + row.dy, h);
-            let tz = wrap(z + row.dz, d);
-            let base = (tz as usize * h as usize + ty as usize) * w as usize;
-            if interior {
-                // No tap of this row leaves the row: plain offsets from the row's start.
-                let origin = base + x as usize;
-                for &(dx, weight) in &row.taps {
-                    visitor.visit(origin.wrapping_add_signed(dx as isize), weight);
-                }
+        let inside = |t: i32, min: i32, max: i32, size: u32| t + min >= 0 && t + max < size as i32;
+        let slice = h as usize * w as usize;
+        let centre = y as usize * w as usize + x as usize;
+        let wraps =
+            if !inside(x, self.min_dx, self.max_dx, w) || !inside(y, self.min_dy, self.max_dy, h) {
+                Wraps::Any
+            } else if inside(z, self.min_dz, self.max_dz, d) {
+                Wraps::None
             } else {
-                for &(dx, weight) in &row.taps {
-                    visitor.visit(base + wrap(x + dx, w) as usize, weight);
+                Wraps::OnlyZ
+            };
+        // The index of a run's first tap, wrapped.
+        let start = |run: &KernelRun| match wraps {
+            // Fixed offsets from the centre's index.
+            Wraps::None => (z as usize * slice + centre).wrapping_add_signed(run.offset),
+            Wraps::OnlyZ => (wrap(z + run.dz, d) as usize * slice + centre)
+                .wrapping_add_signed(run.slice_offset),
+            Wraps::Any => {
+                let (tx, ty, tz) = (
+                    wrap(x + run.dx, w),
+                    wrap(y + run.dy, h),
+                    wrap(z + run.dz, d),
+                );
+                (tz as usize * h as usize + ty as usize) * w as usize + tx as usize
+            }
+        };
+        for run in &self.runs {
+            let weights = &self.weights[run.first as usize..][..run.len as usize];
+            let start = start(run);
+            if wraps == Wraps::Any {
+                // A run wraps around its row at most once: it is at most `w` long and starts in
+                // `(-w/2, 3w/2)`.
+                let row_left = w as usize - start % w as usize;
+                if weights.len() > row_left {
+                    let (before_wrap, after_wrap) = weights.split_at(row_left);
+                    visitor.visit_run(start, before_wrap);
+                    visitor.visit_run(start + row_left - w as usize, after_wrap);
+                    continue;
                 }
             }
+            visitor.visit_run(start, weights);
         }
+        for tap in &self.single_taps {
+            visitor.visit(start(tap), self.weights[tap.first as usize]);
+        }
+    }
+}
+
+/// Which coordinates of a splat's taps may wrap around the volume.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Wraps {
+    /// None: every tap is at a fixed index offset from the centre.
+    None,
+    /// Only z (the centre is near the first or last frame).
+    OnlyZ,
+    /// Any coordinate.
+    Any,
+}
+
+/// `t` wrapped into `0..size`, for `t` in `-size..2 * size`.
+#[inline(always)]
+fn wrap(t: i32, size: u32) -> i32 {
+    if t < 0 {
+        t + size as i32
+    } else if t >= size as i32 {
+        t - size as i32
+    } else {
+        t
     }
 }
 
@@ -286,5 +398,77 @@ mod tests {
         // Huge σ: every pixel of the slice and column, nearly flat.
         let flat = EnergyKernel::new(&MaskSpec::new(8, 8, 4, 0).with_sigma(1000.0));
         assert_eq!(flat.taps(), 64 + 3);
+    }
+
+    /// Records every tap of a splat, checking that runs stay within one image row.
+    struct Recorder {
+        width: usize,
+        taps: Vec<(usize, Weight)>,
+    }
+
+    impl TapVisitor for Recorder {
+        fn visit(&mut self, index: usize, weight: Weight) {
+            self.taps.push((index, weight));
+        }
+
+        fn visit_run(&mut self, start: usize, weights: &[Weight]) {
+            assert!(!weights.is_empty(), "empty run at {start}");
+            assert!(
+                start % self.width + weights.len() <= self.width,
+                "run of {} at {start} crosses a row end",
+                weights.len()
+            );
+            for (k, &weight) in weights.iter().enumerate() {
+                self.visit(start + k, weight);
+            }
+        }
+    }
+
+    #[test]
+    fn every_centre_gets_the_same_footprint_translated() {
+        // Sizes where some centres splat without wrapping, some wrap only in z, and some wrap in
+        // x or y; and tiny sizes where the kernel folds onto itself.
+        for spec in [
+            MaskSpec::new(24, 20, 16, 0),
+            MaskSpec::new(19, 17, 6, 0),
+            MaskSpec::new(5, 3, 7, 0),
+            MaskSpec::new(1, 37, 3, 0),
+            MaskSpec::new(16, 14, 18, 0).with_topology(EnergyTopology::Isotropic3D),
+            MaskSpec::new(20, 20, 4, 0).with_topology(EnergyTopology::Independent2D),
+        ] {
+            let kernel = EnergyKernel::new(&spec);
+            let (w, h, d) = (
+                spec.width as usize,
+                spec.height as usize,
+                spec.depth as usize,
+            );
+            let splat = |x: usize, y: usize, z: usize| {
+                let mut recorder = Recorder {
+                    width: w,
+                    taps: Vec::new(),
+                };
+                kernel.for_each_tap(x as u32, y as u32, z as u32, &mut recorder);
+                recorder.taps.sort_unstable();
+                recorder.taps
+            };
+            let origin = splat(0, 0, 0);
+            assert_eq!(origin.len(), kernel.taps(), "{spec:?}");
+            for z in 0..d {
+                for y in 0..h {
+                    for x in 0..w {
+                        let mut expected: Vec<(usize, Weight)> = origin
+                            .iter()
+                            .map(|&(i, weight)| {
+                                let (ox, oy, oz) = (i % w, i / w % h, i / (w * h));
+                                let (tx, ty, tz) = ((ox + x) % w, (oy + y) % h, (oz + z) % d);
+                                ((tz * h + ty) * w + tx, weight)
+                            })
+                            .collect();
+                        expected.sort_unstable();
+                        assert_eq!(splat(x, y, z), expected, "{spec:?} at ({x}, {y}, {z})");
+                    }
+                }
+            }
+        }
     }
 }

@@ -23,9 +23,16 @@ use rand::SeedableRng;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 
-use crate::extremum::{Extremum, ExtremumTree, Keys, ON_BIT, key};
+use crate::extremum::{Extremum, ExtremumTree, ON_BIT};
 use crate::kernel::{EnergyKernel, TapVisitor, Weight};
 use crate::spec::MaskSpec;
+
+/// Volumes of at least this many pixels (4 MiB of energy words) load each splat's footprint
+/// before updating it (see [`EnergyField::toggle`]). Measured on the 2-core VM (BENCHMARKS.md):
+/// the first pass costs 7–12% of the CPU time at 64×64×32, 64×64×64 and 128×128×32, whose
+/// energies mostly stay in cache; at 128×128×64 it measured from 4% slower to 17% faster with the
+/// neighbours' load, at 128×128×128 14% faster and at 256×256×128 21–26% faster.
+const TOUCH_FIRST_PIXELS: usize = 1 << 20;
 
 /// Progress of one generation: `ranked` of `pixels` pixels have their rank (phase 1 reports 0).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -66,11 +73,9 @@ impl<'k> EnergyField<'k> {
         self.energy[i] & ON_BIT != 0
     }
 
-    fn keys(&self) -> Keys<'_> {
-        Keys {
-            energy: &self.energy,
-            priority: self.priority,
-        }
+    /// A tree of `extremum` over the current state.
+    fn tree(&self, extremum: Extremum) -> ExtremumTree<'k> {
+        ExtremumTree::new(extremum, &self.energy, self.priority)
     }
 
     /// Turns pixel `i` on or off, updating every affected key and the trees that track them.
@@ -78,24 +83,38 @@ impl<'k> EnergyField<'k> {
     ///
     /// Turning a pixel on raises energies: that can only improve a max tree's members (and `i`
     /// joins it) and only worsen a min tree's (and `i` leaves it); turning off is the mirror
-    /// image. Worsening is an O(1) check per touched pixel.
+    /// image. Worsening costs one check per extremum-tree leaf a run of taps overlaps.
+    ///
+    /// In volumes of [`TOUCH_FIRST_PIXELS`] or more the splat is memory-bound (its ~25 runs are
+    /// ~30 scattered cache lines), so a first pass only loads one word at each end of every run:
+    /// those independent loads, a few hundred instructions in all, are in flight together, where
+    /// the adding pass, ~50 instructions per run, kept only a few misses in flight.
     #[inline]
     pub(crate) fn toggle<const TREES: usize>(
         &mut self,
         i: usize,
         turn_on: bool,
-        trees: [&mut ExtremumTree; TREES],
+        trees: [&mut ExtremumTree<'k>; TREES],
     ) {
         debug_assert_ne!(self.is_on(i), turn_on);
-        self.energy[i] ^= ON_BIT;
         let (w, h) = (self.width as usize, self.height as usize);
         let (x, y, z) = (i % w, (i / w) % h, i / (w * h));
+        if self.energy.len() >= TOUCH_FIRST_PIXELS {
+            // Bring the footprint's cache lines in together (see above).
+            let mut touch = Touch {
+                energy: &self.energy,
+                sum: 0,
+            };
+            self.kernel
+                .for_each_tap(x as u32, y as u32, z as u32, &mut touch);
+            std::hint::black_box(touch.sum);
+        }
+        self.energy[i] ^= ON_BIT;
         let improves = trees
             .each_ref()
             .map(|t| (t.extremum() == Extremum::Max) == turn_on);
         let mut splat = Splat {
             energy: &mut self.energy,
-            priority: self.priority,
             trees,
             improves,
             turn_on,
@@ -104,9 +123,14 @@ impl<'k> EnergyField<'k> {
             .for_each_tap(x as u32, y as u32, z as u32, &mut splat);
     }
 
+    /// The energy words' buffer, for reuse.
+    fn into_energy(self) -> Vec<u32> {
+        self.energy
+    }
+
     /// The best member of `tree`.
-    pub(crate) fn best(&self, tree: &mut ExtremumTree) -> Option<usize> {
-        tree.best(self.keys())
+    pub(crate) fn best(&self, tree: &mut ExtremumTree<'k>) -> Option<usize> {
+        tree.best(&self.energy)
     }
 
     /// Energy of every pixel.
@@ -133,16 +157,15 @@ impl<'k> EnergyField<'k> {
 
 /// The tap visitor of [`EnergyField::toggle`]: adds or removes one pixel's energy and tells the
 /// trees.
-struct Splat<'a, const TREES: usize> {
+struct Splat<'a, 'k, const TREES: usize> {
     energy: &'a mut [u32],
-    priority: &'a [u32],
-    trees: [&'a mut ExtremumTree; TREES],
+    trees: [&'a mut ExtremumTree<'k>; TREES],
     /// Per tree: whether this toggle can improve its members' keys.
     improves: [bool; TREES],
     turn_on: bool,
 }
 
-impl<const TREES: usize> TapVisitor for Splat<'_, TREES> {
+impl<const TREES: usize> TapVisitor for Splat<'_, '_, TREES> {
     #[inline(always)]
     fn visit(&mut self, j: usize, weight: Weight) {
         let e = if self.turn_on {
@@ -153,13 +176,54 @@ impl<const TREES: usize> TapVisitor for Splat<'_, TREES> {
         self.energy[j] = e;
         for (tree, &improves) in self.trees.iter_mut().zip(&self.improves) {
             if !improves {
-                // Members may only worsen, and the toggled pixel (touched by its own tap) leaves.
                 tree.worsen(j);
             } else if (e & ON_BIT != 0) == self.turn_on {
-                // Members (and the toggled pixel, which joins) may improve.
-                tree.update(j, key(e, self.priority[j]));
+                tree.update(j, e);
             }
         }
+    }
+
+    #[inline(always)]
+    fn visit_run(&mut self, start: usize, weights: &[Weight]) {
+        let energy = &mut self.energy[start..start + weights.len()];
+        if self.turn_on {
+            energy.iter_mut().zip(weights).for_each(|(e, &w)| *e += w);
+        } else {
+            energy.iter_mut().zip(weights).for_each(|(e, &w)| *e -= w);
+        }
+        for (tree, &improves) in self.trees.iter_mut().zip(&self.improves) {
+            if !improves {
+                // Members may only worsen, and the toggled pixel (touched by its own tap) leaves.
+                tree.worsen_range(start, weights.len());
+            } else {
+                // Members (and the toggled pixel, which joins) may improve.
+                for (at, &e) in energy.iter().enumerate() {
+                    if (e & ON_BIT != 0) == self.turn_on {
+                        tree.update(start + at, e);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// The tap visitor that loads one word at each end of every run, so that the cache lines a splat
+/// needs are requested together.
+struct Touch<'a> {
+    energy: &'a [u32],
+    /// Folds the loaded words so they are not optimised away.
+    sum: u32,
+}
+
+impl TapVisitor for Touch<'_> {
+    #[inline(always)]
+    fn visit(&mut self, j: usize, _: Weight) {
+        self.sum ^= self.energy[j];
+    }
+
+    #[inline(always)]
+    fn visit_run(&mut self, start: usize, weights: &[Weight]) {
+        self.sum ^= self.energy[start] ^ self.energy[start + weights.len() - 1];
     }
 }
 
@@ -185,7 +249,9 @@ pub fn rank_pixels(spec: &MaskSpec, progress: &mut dyn FnMut(Progress)) -> Vec<u
     let n = spec.pixels() as usize;
     let (priorities, initial) = seeded_start(spec);
     let mut field = EnergyField::new(&kernel, spec, &priorities);
-    let mut ranks = vec![0u32; n];
+    // Phases 2b and 3 append each filled void (sequential stores) instead of a random store per
+    // step; the ranks are scattered once at the end.
+    let mut fill_order: Vec<u32> = Vec::new();
     let mut report = |ranked: usize| {
         progress(Progress {
             ranked: ranked as u64,
@@ -199,8 +265,8 @@ pub fn rank_pixels(spec: &MaskSpec, progress: &mut dyn FnMut(Progress)) -> Vec<u
     }
     let ones = initial.len();
     {
-        let mut clusters = ExtremumTree::new(Extremum::Max, field.keys());
-        let mut voids = ExtremumTree::new(Extremum::Min, field.keys());
+        let mut clusters = field.tree(Extremum::Max);
+        let mut voids = field.tree(Extremum::Min);
         loop {
             let cluster = field
                 .best(&mut clusters)
@@ -222,7 +288,7 @@ pub fn rank_pixels(spec: &MaskSpec, progress: &mut dyn FnMut(Progress)) -> Vec<u
     let mut removal_order = Vec::new();
     rayon::in_place_scope(|scope| {
         scope.spawn(|_| {
-            let mut clusters = ExtremumTree::new(Extremum::Max, pattern.keys());
+            let mut clusters = pattern.tree(Extremum::Max);
             removal_order.reserve_exact(ones);
             for _ in 0..ones {
                 let cluster = pattern.best(&mut clusters).expect("pattern pixels remain");
@@ -230,16 +296,23 @@ pub fn rank_pixels(spec: &MaskSpec, progress: &mut dyn FnMut(Progress)) -> Vec<u
                 pattern.toggle(cluster, false, [&mut clusters]);
             }
         });
-        let mut voids = ExtremumTree::new(Extremum::Min, field.keys());
+        let mut voids = field.tree(Extremum::Min);
+        fill_order.reserve_exact(n - ones);
         for rank in ones..n {
             let void = field.best(&mut voids).expect("off pixels remain");
-            ranks[void] = rank as u32;
+            fill_order.push(void as u32);
             field.toggle(void, true, [&mut voids]);
             if rank % 8192 == 0 {
                 report(rank);
             }
         }
     });
+    drop(pattern);
+    // Every pixel gets a rank below, so the energy words' buffer can hold them.
+    let mut ranks = field.into_energy();
+    for (filled, &pixel) in fill_order.iter().enumerate() {
+        ranks[pixel as usize] = (ones + filled) as u32;
+    }
     for (removed, &pixel) in removal_order.iter().enumerate() {
         ranks[pixel as usize] = (ones - 1 - removed) as u32;
     }
@@ -327,31 +400,42 @@ mod tests {
 
     #[test]
     fn energy_bookkeeping_is_exact_after_many_toggles() {
+        // 24×20×12 has centres that splat without wrapping, centres that wrap only in z and
+        // centres that wrap in x or y.
         let spec = MaskSpec::new(24, 20, 12, 9);
         let kernel = EnergyKernel::new(&spec);
         let (priorities, _) = seeded_start(&spec);
         let mut field = EnergyField::new(&kernel, &spec, &priorities);
-        let mut voids = ExtremumTree::new(Extremum::Min, field.keys());
+        let mut voids = field.tree(Extremum::Min);
+        let mut clusters = field.tree(Extremum::Max);
         let mut rng = ChaCha8Rng::seed_from_u64(5);
         let mut order: Vec<usize> = (0..field.energy.len()).collect();
+        let scan = |field: &EnergyField, on: bool| {
+            let keys = (0..field.energy.len())
+                .filter(|&i| field.is_on(i) == on)
+                .map(|i| (field.energy[i], priorities[i], i));
+            let best = if on { keys.max() } else { keys.min() };
+            best.map(|(_, _, i)| i)
+        };
         for round in 0..40 {
             order.shuffle(&mut rng);
             for &i in &order[..order.len() / 3] {
                 let turn_on = !field.is_on(i);
-                field.toggle(i, turn_on, [&mut voids]);
+                field.toggle(i, turn_on, [&mut voids, &mut clusters]);
             }
             assert_eq!(
                 field.energies(),
                 field.recomputed_energies(),
                 "round {round}"
             );
+            // And the trees agree with scans.
+            assert_eq!(field.best(&mut voids), scan(&field, false), "round {round}");
+            assert_eq!(
+                field.best(&mut clusters),
+                scan(&field, true),
+                "round {round}"
+            );
         }
-        // And the tree agrees with a scan.
-        let best = field.best(&mut voids);
-        let scan = (0..field.energy.len())
-            .filter(|&i| !field.is_on(i))
-            .min_by_key(|&i| field.keys().key(i));
-        assert_eq!(best, scan);
     }
 
     /// FNV-1a over the ranks' little-endian bytes: a digest stable across Rust releases.
