@@ -44,12 +44,22 @@
 //! exponential moving average, module [`filtered`]) and [`convergence()`] (per-pixel integration
 //! error over the frames, Monte Carlo and EMA, module [`mod@convergence`]) measure what a renderer
 //! sees rather than a spectrum.
+//!
+//! # Images and histograms
+//!
+//! [`dft_xy_image`] and [`dft_xz_image`] (module [`dft`]) give centred DFT magnitude images like
+//! the paper's Fig. 5; [`slice_histogram_deviation`] and [`pixel_histogram_deviation`] (module
+//! [`histogram`]) how far each frame's and each pixel's values are from uniform.
 
 pub mod convergence;
+pub mod dft;
 pub mod filtered;
+pub mod histogram;
 
 pub use convergence::{Convergence, ConvergenceOptions, Integrand, convergence};
+pub use dft::{SpectrumImage, dft_xy_image, dft_xz_image};
 pub use filtered::{FilteredErrorOptions, filtered_error, gaussian_weights};
+pub use histogram::{pixel_histogram_deviation, slice_histogram_deviation};
 
 use std::fmt;
 
@@ -254,7 +264,7 @@ pub fn spatial_power(field: &Field) -> Vec<f64> {
             .map(|slices| {
                 let mut sum = vec![0.0; n];
                 for &z in slices {
-                    add_slice_power(field.slice(z), w, h, &*fft_x, &*fft_y, &mut sum);
+                    add_slice_spectrum(field.slice(z), w, h, &*fft_x, &*fft_y, &mut sum, |p| p);
                 }
                 sum
             }),
@@ -330,33 +340,8 @@ pub fn temporal_spectrum(field: &Field) -> Vec<f64> {
     sum.into_iter().map(|s| s / n as f64).collect()
 }
 
-/// The largest relative deviation of any slice's histogram from uniform.
-///
-/// Each slice's values are counted in `bins` equal bins of `[0, 1]` (value `v` goes to bin
-/// `min(⌊v · bins⌋, bins − 1)`); with `e = width · height / bins` the expected count, the result
-/// is `max |count − e| / e` over all slices and bins. Dimensionless, `≥ 0`: 0 for an exactly
-/// uniform histogram (every slice of a [`crate::Volume`] when `bins` divides its slice size), 0.5
-/// when some bin holds half again (or half less than) its share. Panics if `bins == 0`.
-pub fn slice_histogram_deviation(field: &Field, bins: usize) -> f64 {
-    assert!(bins > 0, "a histogram needs at least one bin");
-    let expected = field.slice_pixels() as f64 / bins as f64;
-    (0..field.depth)
-        .into_par_iter()
-        .map(|z| {
-            let mut counts = vec![0usize; bins];
-            for &v in field.slice(z) {
-                counts[((v * bins as f64) as usize).min(bins - 1)] += 1;
-            }
-            counts
-                .iter()
-                .map(|&c| (c as f64 - expected).abs() / expected)
-                .fold(0.0, f64::max)
-        })
-        .reduce(|| 0.0, f64::max)
-}
-
-/// Most parallel tasks [`spatial_power`] splits the slices into (bounding its memory to this
-/// many spectra).
+/// Most parallel tasks [`spatial_power`] and the [`dft`] images split their images into (bounding
+/// their memory to this many spectra).
 const TASKS: usize = 16;
 
 /// The element-wise sum of `parts`, added in task order whatever the thread count, so every
@@ -396,15 +381,16 @@ fn normalise(series: &mut [Complex<f64>]) -> Option<f64> {
     (squares > 0.0).then(|| (n - 1.0) / (n * squares))
 }
 
-/// Adds the normalised 2D power of one `w × h` slice to `sum` (index `fy · w + fx`), leaving DC
-/// at 0. A constant slice adds nothing.
-fn add_slice_power(
+/// Adds `map(P(f))` of the normalised 2D power `P` of one `w × h` slice to `sum` (index
+/// `fy · w + fx`), leaving DC alone. A constant slice adds nothing.
+fn add_slice_spectrum(
     slice: &[f64],
     w: usize,
     h: usize,
     fft_x: &dyn Fft<f64>,
     fft_y: &dyn Fft<f64>,
     sum: &mut [f64],
+    map: impl Fn(f64) -> f64,
 ) {
     let mut rows: Vec<Complex<f64>> = slice.iter().map(|&v| Complex::new(v, 0.0)).collect();
     let Some(scale) = normalise(&mut rows) else {
@@ -422,7 +408,7 @@ fn add_slice_power(
     for (fx, column) in columns.chunks_exact(h).enumerate() {
         for (fy, c) in column.iter().enumerate() {
             if fx != 0 || fy != 0 {
-                sum[fy * w + fx] += c.norm_sqr() * scale;
+                sum[fy * w + fx] += map(c.norm_sqr() * scale);
             }
         }
     }
@@ -575,19 +561,5 @@ mod tests {
         for threads in [2, 3, 7] {
             assert!(measure(threads) == one, "{threads} threads");
         }
-    }
-
-    #[test]
-    fn histogram_deviation_measures_the_worst_bin() {
-        let uniform: Vec<f64> = (0..16).map(|i| (i as f64 + 0.5) / 16.0).collect();
-        let field = Field::new(4, 4, 1, &uniform).unwrap();
-        assert_eq!(slice_histogram_deviation(&field, 4), 0.0);
-        assert_eq!(slice_histogram_deviation(&field, 16), 0.0);
-        // Second slice: one value moved from bin 0 to bin 3 → counts 3,4,4,5 of 4 expected.
-        let mut two = uniform.clone();
-        two.extend(&uniform);
-        two[16] = 1.0;
-        let field = Field::new(4, 4, 2, &two).unwrap();
-        assert_eq!(slice_histogram_deviation(&field, 4), 0.25);
     }
 }

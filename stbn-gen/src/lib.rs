@@ -17,13 +17,25 @@ pub mod analysis;
 pub mod baselines;
 pub mod export;
 mod extremum;
+pub mod importance;
 pub mod kernel;
+pub mod space;
 pub mod spec;
+pub mod swap;
+pub mod tellusim;
+pub mod vector;
 pub mod void_cluster;
 pub mod volume;
 
+pub use baselines::{BaselineKind, generate_baseline};
+pub use importance::{ImageError, ImagePdf};
 pub use kernel::EnergyKernel;
+pub use space::SampleSpace;
 pub use spec::{EnergyTopology, MaskSpec, SpecError};
+pub use vector::{
+    EnergyTrace, InitialArrangement, TracePoint, VectorProgress, VectorSpec, VectorSpecError,
+    VectorVolume, generate_vector, generate_vector_with_progress,
+};
 pub use void_cluster::Progress;
 pub use volume::Volume;
 

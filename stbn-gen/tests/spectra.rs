@@ -9,8 +9,9 @@ use std::sync::OnceLock;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use stbn_gen::analysis::{
-    Field, radial_spectrum, slice_histogram_deviation, spatial_low_band, spatial_power,
-    temporal_low_band, temporal_spectrum,
+    Field, SpectrumImage, dft_xy_image, dft_xz_image, pixel_histogram_deviation, radial_spectrum,
+    slice_histogram_deviation, spatial_low_band, spatial_power, temporal_low_band,
+    temporal_spectrum,
 };
 use stbn_gen::void_cluster::rank_pixels;
 use stbn_gen::{EnergyTopology, MaskSpec, Volume};
@@ -184,4 +185,94 @@ fn reranking_slices_costs_almost_no_blueness() {
         (spatial - global_spatial).abs() < 0.1 * global_spatial,
         "{global_spatial} → {spatial}"
     );
+}
+
+/// Mean and standard deviation of `image` over every frequency but DC.
+fn non_dc_mean_and_spread(image: &SpectrumImage) -> (f64, f64) {
+    let centre = (image.height / 2) * image.width + image.width / 2;
+    let values: Vec<f64> = (0..image.values.len())
+        .filter(|&i| i != centre)
+        .map(|i| image.values[i])
+        .collect();
+    let mean = values.iter().sum::<f64>() / values.len() as f64;
+    let variance = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / values.len() as f64;
+    (mean, variance.sqrt())
+}
+
+/// Mean of `image` over the frequencies `(fx, fy)` (signed) that `keep` selects.
+fn mean_where(image: &SpectrumImage, keep: impl Fn(isize, isize) -> bool) -> f64 {
+    let (w, h) = (image.width as isize, image.height as isize);
+    let mut sum = 0.0;
+    let mut count = 0;
+    for fy in -h / 2..h - h / 2 {
+        for fx in -w / 2..w - w / 2 {
+            if keep(fx, fy) {
+                sum += image.at(fx, fy);
+                count += 1;
+            }
+        }
+    }
+    sum / count as f64
+}
+
+#[test]
+fn dft_images_of_white_noise_are_flat() {
+    let values = white_noise(4);
+    let field = field(&values);
+    for (plane, image) in [("XY", dft_xy_image(&field)), ("XZ", dft_xz_image(&field))] {
+        let (mean, spread) = non_dc_mean_and_spread(&image);
+        eprintln!(
+            "white noise {plane}: mean {mean:.4}, std/mean {:.4}",
+            spread / mean
+        );
+        // E[√P] = √π/2 for P exponential with mean 1; averaging 32 (XY) or 64 (XZ) images of
+        // std √(1 − π/4) = 0.46 leaves about 0.08 / 0.06 of the mean.
+        let expected = PI.sqrt() / 2.0;
+        assert!((mean / expected - 1.0).abs() < 0.03, "{plane}: {mean}");
+        assert!(spread / mean < 0.12, "{plane}: {}", spread / mean);
+        assert_eq!(image.at(0, 0), 0.0);
+    }
+}
+
+#[test]
+fn dft_images_of_stbn_are_dark_at_low_frequencies() {
+    let volume = Volume::from_global_ranks(W as u32, H as u32, D as u32, stbn_ranks());
+    let values = volume.values();
+    let field = field(&values);
+    let xy = dft_xy_image(&field);
+    let r2 = |fx: isize, fy: isize| fx * fx + fy * fy;
+    let centre = mean_where(&xy, |fx, fy| (1..=16).contains(&r2(fx, fy)));
+    let outer = mean_where(&xy, |fx, fy| r2(fx, fy) >= 256);
+    eprintln!("STBN XY: mean magnitude {centre:.4} at radius ≤ 4, {outer:.4} at radius ≥ 16");
+    assert!(centre < 0.1 * outer, "{centre} vs {outer}");
+    // XZ: blue over time makes the rows of low temporal frequency dark at every x frequency.
+    let xz = dft_xz_image(&field);
+    let slow = mean_where(&xz, |fx, ft| ft != 0 && ft.abs() <= 2 && fx != 0);
+    let fast = mean_where(&xz, |_, ft| ft.abs() >= 8);
+    eprintln!("STBN XZ: mean magnitude {slow:.4} at 1 ≤ |ft| ≤ 2, {fast:.4} at |ft| ≥ 8");
+    assert!(slow < 0.5 * fast, "{slow} vs {fast}");
+}
+
+#[test]
+fn pixel_histogram_deviation_separates_white_from_stratified_sequences() {
+    let values = white_noise(5);
+    let white = pixel_histogram_deviation(&field(&values));
+    // Kolmogorov's limit 0.87/√32 = 0.154; small samples run a little higher.
+    eprintln!("white noise: pixel KS {white:.4}");
+    assert!((0.14..0.19).contains(&white), "{white}");
+    // Every pixel's sequence a shuffled stratification (i + ½)/D: exactly 1/(2D).
+    let stratified: Vec<f64> = (0..W * H * D)
+        .map(|i| {
+            let (p, z) = (i % (W * H), i / (W * H));
+            ((z * 7 + p) % D) as f64 / D as f64 + 0.5 / D as f64
+        })
+        .collect();
+    let measured = pixel_histogram_deviation(&field(&stratified));
+    assert!((measured - 0.5 / D as f64).abs() < 1e-12, "{measured}");
+    // STBN lies in between: blue over time, not stratified.
+    let volume = Volume::from_global_ranks(W as u32, H as u32, D as u32, stbn_ranks());
+    let stbn_values = volume.values();
+    let stbn = pixel_histogram_deviation(&field(&stbn_values));
+    eprintln!("STBN: pixel KS {stbn:.4}");
+    assert!(stbn < 0.6 * white && stbn > 0.5 / D as f64, "{stbn}");
 }

@@ -1,0 +1,439 @@
+//! Vector masks: what to generate ([`VectorSpec`]), the generator ([`generate_vector`]) and its
+//! output ([`VectorVolume`], [`EnergyTrace`]).
+//!
+//! Each slice starts as a stratified sample set of the [`SampleSpace`]
+//! ([`SampleSpace::stratified_sampler`]), arranged as [`InitialArrangement`] says: by default
+//! sorted along a Hilbert curve of value space and handed out in the rank order of a scalar STBN
+//! mask, so similar values start far apart in space and time. The swap optimiser
+//! ([`crate::swap`]) then permutes the values within each slice to lower the spatiotemporal
+//! energy of the paper's §4.2. A slice's multiset of values never changes, so every frame on its
+//! own stays a stratified sample set of the space.
+
+use std::fmt;
+
+use rayon::prelude::*;
+
+use crate::space::{SampleSpace, hilbert_key};
+use crate::spec::{MaskSpec, SpecError};
+use crate::swap::{SwapOptimizer, keyed_rng, stream};
+
+/// How each slice's stratified values are arranged before the swaps.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum InitialArrangement {
+    /// A seeded random permutation per slice (white noise), as in the paper.
+    Random,
+    /// The values sorted by [`hilbert_key`] and given to the pixels in the order of their per-slice
+    /// rank in the scalar STBN mask `MaskSpec::new(width, height, depth, seed)`
+    /// ([`crate::generate`]): for every threshold, the pixels holding values from one stretch of
+    /// the curve (one region of value space) form a blue-noise set in space and time. A much
+    /// better start than white noise for the price of one scalar mask (BENCHMARKS.md).
+    ScalarStbn,
+}
+
+impl InitialArrangement {
+    /// A short lowercase name: `random` or `scalar_stbn`.
+    pub fn name(self) -> &'static str {
+        match self {
+            InitialArrangement::Random => "random",
+            InitialArrangement::ScalarStbn => "scalar_stbn",
+        }
+    }
+}
+
+/// Everything that determines a vector mask, bit for bit: equal specs give identical volumes for
+/// every thread count.
+#[derive(Clone, Debug, PartialEq)]
+pub struct VectorSpec {
+    /// Pixels per row, `1..=`[`VectorSpec::MAX_AXIS`].
+    pub width: u32,
+    /// Rows per slice, `1..=`[`VectorSpec::MAX_AXIS`].
+    pub height: u32,
+    /// Slices (frames), `1..=`[`VectorSpec::MAX_AXIS`].
+    pub depth: u32,
+    /// Seed of the initial sample sets, their arrangement and the swap proposals.
+    pub seed: u64,
+    /// What each pixel holds.
+    pub space: SampleSpace,
+    /// σi of the energy `exp(−‖p−q‖²/σi² − ‖Vp−Vq‖^(d/3)/σs²)`, in pixels (and frames); finite,
+    /// `> 0`. The paper uses 1.9.
+    pub sigma_image: f64,
+    /// σs of the energy, in value units (the value term is `‖Vp−Vq‖^(d/3) / σs²`); finite, `> 0`.
+    /// The paper uses 1.0.
+    pub sigma_value: f64,
+    /// Optimisation budget: swaps proposed per pixel, finite, in
+    /// `0..=`[`VectorSpec::MAX_SWAPS_PER_PIXEL`]. Each whole unit is one pass in which every pixel
+    /// proposes one swap; a fractional part runs a partial last pass. 0 keeps the random
+    /// arrangement of the stratified sets.
+    pub swaps_per_pixel: f64,
+    /// Pair weights `exp(−‖p−q‖²/σi²)` below this are dropped, in `(0, 1)`. The default 5·10⁻³
+    /// keeps offsets up to `σi √ln 200 = 2.3 σi` (4.4 pixels at σi 1.9: 56 same-slice and 8
+    /// same-position neighbours).
+    pub kernel_tolerance: f64,
+    /// How the slices start ([`InitialArrangement::ScalarStbn`] by default).
+    pub initial_arrangement: InitialArrangement,
+}
+
+impl VectorSpec {
+    /// σi the paper uses.
+    pub const DEFAULT_SIGMA_IMAGE: f64 = 1.9;
+    /// σs the paper uses.
+    pub const DEFAULT_SIGMA_VALUE: f64 = 1.0;
+    /// Default budget in swaps proposed per pixel. The energy keeps falling roughly by a constant
+    /// amount per doubling of the budget (no sharp knee: Vec2 at 64×64×32 loses 0.16% of its
+    /// energy from 8 to 16 swaps per pixel and 0.57% more by 256), so the default is set by
+    /// time: 16 keeps Vec2 and UnitVec3 at 128×128×64 within the 60 s target on two cores
+    /// (BENCHMARKS.md has the curve and the times).
+    pub const DEFAULT_SWAPS_PER_PIXEL: f64 = 16.0;
+    /// Default kernel truncation.
+    pub const DEFAULT_KERNEL_TOLERANCE: f64 = 5e-3;
+    /// Largest budget accepted.
+    pub const MAX_SWAPS_PER_PIXEL: f64 = 10_000.0;
+    /// Largest extent of one axis.
+    pub const MAX_AXIS: u32 = MaskSpec::MAX_AXIS;
+    /// Largest number of pixels of one slice.
+    pub const MAX_SLICE_PIXELS: u64 = MaskSpec::MAX_SLICE_PIXELS;
+    /// Largest number of pixels of a volume.
+    pub const MAX_PIXELS: u64 = MaskSpec::MAX_PIXELS;
+
+    /// A spec with the paper's σs, the default budget and tolerance.
+    pub fn new(width: u32, height: u32, depth: u32, seed: u64, space: SampleSpace) -> VectorSpec {
+        VectorSpec {
+            width,
+            height,
+            depth,
+            seed,
+            space,
+            sigma_image: Self::DEFAULT_SIGMA_IMAGE,
+            sigma_value: Self::DEFAULT_SIGMA_VALUE,
+            swaps_per_pixel: Self::DEFAULT_SWAPS_PER_PIXEL,
+            kernel_tolerance: Self::DEFAULT_KERNEL_TOLERANCE,
+            initial_arrangement: InitialArrangement::ScalarStbn,
+        }
+    }
+
+    /// The same spec with another budget.
+    pub fn with_swaps_per_pixel(mut self, swaps_per_pixel: f64) -> VectorSpec {
+        self.swaps_per_pixel = swaps_per_pixel;
+        self
+    }
+
+    /// Number of pixels of one slice.
+    pub fn slice_pixels(&self) -> u64 {
+        u64::from(self.width) * u64::from(self.height)
+    }
+
+    /// Number of pixels of the volume.
+    pub fn pixels(&self) -> u64 {
+        self.slice_pixels() * u64::from(self.depth)
+    }
+
+    /// Peak generator memory per pixel in bytes: during optimisation the values (4 bytes per
+    /// component, converted in place to and from the volume's), each pixel's cached energy (8)
+    /// and the scalar mask's ranks or the pdf channel (4); before it, the scalar mask's generator
+    /// ([`MaskSpec::BYTES_PER_PIXEL`]) if the arrangement needs one.
+    pub fn bytes_per_pixel(&self) -> u64 {
+        let optimiser = 4 * self.space.dims() as u64 + 8 + 4;
+        match self.initial_arrangement {
+            InitialArrangement::ScalarStbn => optimiser.max(MaskSpec::BYTES_PER_PIXEL + 4),
+            InitialArrangement::Random => optimiser,
+        }
+    }
+
+    /// Checks every field against its documented range. Sizes are checked before anything is
+    /// allocated, and an oversized request reports the memory it would have taken.
+    pub fn validate(&self) -> Result<(), VectorSpecError> {
+        for (field, value) in [
+            ("width", self.width),
+            ("height", self.height),
+            ("depth", self.depth),
+        ] {
+            if value == 0 || value > Self::MAX_AXIS {
+                return Err(SpecError::AxisOutOfRange { field, value }.into());
+            }
+        }
+        if let SampleSpace::Vec { dims } = self.space {
+            if !self.space.is_valid() {
+                return Err(VectorSpecError::InvalidDims(dims));
+            }
+        }
+        if self.slice_pixels() > Self::MAX_SLICE_PIXELS || self.pixels() > Self::MAX_PIXELS {
+            return Err(VectorSpecError::TooLarge {
+                width: self.width,
+                height: self.height,
+                depth: self.depth,
+                bytes_needed: self.pixels() * self.bytes_per_pixel(),
+            });
+        }
+        for (field, value) in [
+            ("sigma_image", self.sigma_image),
+            ("sigma_value", self.sigma_value),
+        ] {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(SpecError::InvalidSigma { field, value }.into());
+            }
+        }
+        if !(self.kernel_tolerance > 0.0 && self.kernel_tolerance < 1.0) {
+            return Err(SpecError::InvalidTolerance(self.kernel_tolerance).into());
+        }
+        if !(0.0..=Self::MAX_SWAPS_PER_PIXEL).contains(&self.swaps_per_pixel) {
+            return Err(VectorSpecError::InvalidBudget(self.swaps_per_pixel));
+        }
+        Ok(())
+    }
+}
+
+/// A [`VectorSpec`] field outside its range. `Display` names the field and the allowed range.
+#[derive(Clone, Debug, PartialEq)]
+pub enum VectorSpecError {
+    /// A size, σ or tolerance error shared with scalar masks (field names as in [`VectorSpec`]).
+    Spec(SpecError),
+    /// `SampleSpace::Vec` with `dims` outside `1..=4`.
+    InvalidDims(u8),
+    /// The slice or the volume has more pixels than the generator accepts.
+    TooLarge {
+        /// Requested width.
+        width: u32,
+        /// Requested height.
+        height: u32,
+        /// Requested depth.
+        depth: u32,
+        /// Generator memory the request would have needed, in bytes.
+        bytes_needed: u64,
+    },
+    /// `swaps_per_pixel` is NaN, negative or above [`VectorSpec::MAX_SWAPS_PER_PIXEL`].
+    InvalidBudget(f64),
+}
+
+impl From<SpecError> for VectorSpecError {
+    fn from(e: SpecError) -> Self {
+        VectorSpecError::Spec(e)
+    }
+}
+
+impl fmt::Display for VectorSpecError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            VectorSpecError::Spec(e) => e.fmt(f),
+            VectorSpecError::InvalidDims(dims) => {
+                write!(f, "`dims` of `Vec` is {dims}; it must be in 1..=4")
+            }
+            VectorSpecError::TooLarge {
+                width,
+                height,
+                depth,
+                bytes_needed,
+            } => write!(
+                f,
+                "`size` {width}x{height}x{depth} is too large: generating it would take about \
+                 {:.1} GiB; the limits are {} pixels per slice and {} pixels per volume",
+                *bytes_needed as f64 / f64::from(1u32 << 30),
+                VectorSpec::MAX_SLICE_PIXELS,
+                VectorSpec::MAX_PIXELS,
+            ),
+            VectorSpecError::InvalidBudget(value) => write!(
+                f,
+                "`swaps_per_pixel` is {value}; it must be in 0..={}",
+                VectorSpec::MAX_SWAPS_PER_PIXEL
+            ),
+        }
+    }
+}
+
+impl std::error::Error for VectorSpecError {}
+
+/// A generated vector mask: `width × height × depth` values of `dims` components each, and the
+/// density of each value where the space stores one.
+#[derive(Clone, Debug, PartialEq)]
+pub struct VectorVolume {
+    width: u32,
+    height: u32,
+    depth: u32,
+    dims: usize,
+    values: Vec<f32>,
+    pdf: Option<Vec<f32>>,
+}
+
+impl VectorVolume {
+    /// Pixels per row.
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+
+    /// Rows per slice.
+    pub fn height(&self) -> u32 {
+        self.height
+    }
+
+    /// Slices (frames).
+    pub fn depth(&self) -> u32 {
+        self.depth
+    }
+
+    /// Components per value ([`SampleSpace::dims`]).
+    pub fn dims(&self) -> usize {
+        self.dims
+    }
+
+    /// Pixels of one slice.
+    pub fn slice_pixels(&self) -> usize {
+        self.width as usize * self.height as usize
+    }
+
+    /// Every component, index `((z · height + y) · width + x) · dims + c`.
+    pub fn values(&self) -> &[f32] {
+        &self.values
+    }
+
+    /// The value of pixel `(x, y)` of slice `z` (`dims` components). Panics outside the volume.
+    pub fn value(&self, x: u32, y: u32, z: u32) -> &[f32] {
+        assert!(
+            x < self.width && y < self.height && z < self.depth,
+            "outside the volume"
+        );
+        let i = (z as usize * self.height as usize + y as usize) * self.width as usize + x as usize;
+        &self.values[i * self.dims..(i + 1) * self.dims]
+    }
+
+    /// The values of slice `z` (`width · height · dims` components). Panics if `z >= depth`.
+    pub fn slice_values(&self, z: u32) -> &[f32] {
+        assert!(z < self.depth, "slice {z} of {}", self.depth);
+        let n = self.slice_pixels() * self.dims;
+        &self.values[z as usize * n..(z as usize + 1) * n]
+    }
+
+    /// Per pixel, the density the value was drawn from ([`SampleSpace::pdf`] of the value),
+    /// index `(z · height + y) · width + x`: `Some` exactly when the space
+    /// [stores a pdf](SampleSpace::stores_pdf).
+    pub fn pdf(&self) -> Option<&[f32]> {
+        self.pdf.as_deref()
+    }
+}
+
+/// One point of an [`EnergyTrace`]: the totals after a pass (the first point is the initial
+/// state, before any swap).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TracePoint {
+    /// Swaps proposed so far.
+    pub swaps_attempted: u64,
+    /// Swaps kept so far.
+    pub swaps_accepted: u64,
+    /// The mask's energy ([`crate::swap`]): the initial energy computed from scratch plus the
+    /// exact delta of every accepted swap.
+    pub energy: f64,
+}
+
+/// Energy against work: one [`TracePoint`] before optimisation and one after each pass.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct EnergyTrace {
+    /// In order of work done.
+    pub points: Vec<TracePoint>,
+}
+
+/// Progress of one vector generation, reported after each quarter pass (one tile colour).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VectorProgress {
+    /// Passes of the budget completed, counting quarter passes as 0.25.
+    pub passes_done: f64,
+    /// Passes the budget asks for (`⌈swaps_per_pixel⌉`).
+    pub passes: u64,
+    /// Swaps proposed so far.
+    pub swaps_attempted: u64,
+    /// Swaps kept so far.
+    pub swaps_accepted: u64,
+    /// The running energy.
+    pub energy: f64,
+}
+
+/// Generates the vector mask `spec` describes, with the energy after each pass.
+///
+/// Deterministic: equal specs give equal volumes and traces for every thread count.
+pub fn generate_vector(spec: &VectorSpec) -> Result<(VectorVolume, EnergyTrace), VectorSpecError> {
+    generate_vector_with_progress(spec, &mut |_| {})
+}
+
+/// [`generate_vector`], calling `progress` after each quarter pass.
+pub fn generate_vector_with_progress(
+    spec: &VectorSpec,
+    progress: &mut dyn FnMut(VectorProgress),
+) -> Result<(VectorVolume, EnergyTrace), VectorSpecError> {
+    spec.validate()?;
+    let dims = spec.space.dims();
+    let n = spec.slice_pixels() as usize;
+    let ranks = match spec.initial_arrangement {
+        InitialArrangement::Random => None,
+        InitialArrangement::ScalarStbn => Some(crate::generate(&MaskSpec::new(
+            spec.width,
+            spec.height,
+            spec.depth,
+            spec.seed,
+        ))?),
+    };
+    let mut values = vec![0.0f32; n * spec.depth as usize * dims];
+    let sampler = spec.space.stratified_sampler();
+    values
+        .par_chunks_mut(n * dims)
+        .enumerate()
+        .for_each(|(z, slice)| {
+            let mut rng = keyed_rng(spec.seed, stream::INIT, z as u64, 0);
+            let set = sampler.slice(n, &mut rng);
+            match &ranks {
+                None => slice.copy_from_slice(&set),
+                Some(mask) => {
+                    let mut order: Vec<(u64, u32)> = set
+                        .chunks_exact(dims)
+                        .enumerate()
+                        .map(|(i, v)| (hilbert_key(&spec.space, v), i as u32))
+                        .collect();
+                    order.sort_unstable();
+                    for (pixel, &rank) in mask.slice(z as u32).iter().enumerate() {
+                        let from = order[rank as usize].1 as usize * dims;
+                        slice[pixel * dims..(pixel + 1) * dims]
+                            .copy_from_slice(&set[from..from + dims]);
+                    }
+                }
+            }
+        });
+    drop(ranks);
+
+    let mut optimizer = SwapOptimizer::new(spec, values);
+    let mut trace = EnergyTrace {
+        points: vec![TracePoint {
+            swaps_attempted: 0,
+            swaps_accepted: 0,
+            energy: optimizer.energy(),
+        }],
+    };
+    let passes = spec.swaps_per_pixel.ceil() as u64;
+    for pass in 0..passes {
+        let fraction = (spec.swaps_per_pixel - pass as f64).min(1.0);
+        let mut quarter = 0;
+        let point = optimizer.run_pass(fraction, &mut |o| {
+            quarter += 1;
+            progress(VectorProgress {
+                passes_done: pass as f64 + 0.25 * f64::from(quarter),
+                passes,
+                swaps_attempted: o.swaps_attempted(),
+                swaps_accepted: o.swaps_accepted(),
+                energy: o.energy(),
+            })
+        });
+        trace.points.push(point);
+    }
+
+    let values = optimizer.into_values();
+    let pdf = spec
+        .space
+        .stores_pdf()
+        .then(|| values.par_chunks(dims).map(|v| spec.space.pdf(v)).collect());
+    Ok((
+        VectorVolume {
+            width: spec.width,
+            height: spec.height,
+            depth: spec.depth,
+            dims,
+            values,
+            pdf,
+        },
+        trace,
+    ))
+}
