@@ -27,6 +27,13 @@
 //! let mut buffer = vec![0u8; BLUE2D_64.decoded_len()];
 //! let blue2d = BLUE2D_64.decode_into(&mut buffer).expect("embedded masks are valid");
 //! assert_eq!((blue2d.width(), blue2d.height(), blue2d.depth()), (64, 64, 32));
+//!
+//! // Vector masks: a cosine-weighted hemisphere direction per pixel per frame, with its pdf.
+//! use stbn_demo::masks::COSINE_64;
+//! let ray = COSINE_64.sample_vector(x, y, frame, stbn_runtime::SampleOffset::ZERO);
+//! assert!((ray.value.length() - 1.0).abs() < 1e-6 && ray.pdf >= 0.0);
+//! let direction: stbn_runtime::glam::Vec3 = COSINE_64.sample_vec3(x, y, frame);
+//! # let _ = direction;
 //! ```
 #![no_std]
 

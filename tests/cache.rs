@@ -4,7 +4,6 @@
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Barrier};
 
-use stbn_build_support::encode::encode_volume;
 use stbn_build_support::{
     Cache, CacheKey, CacheStatus, EmbedConfig, EmbedReport, Error, Manifest, embed_with,
 };
@@ -70,10 +69,7 @@ fn expected_blobs(manifest: &Manifest) -> Vec<Vec<u8>> {
     manifest
         .masks()
         .iter()
-        .map(|m| {
-            let volume = stbn_gen::generate(&m.spec()).unwrap();
-            encode_volume(&volume, m.encoding, m.compression)
-        })
+        .map(|m| m.recipe().make(m.encoding, m.compression).unwrap().1)
         .collect()
 }
 
@@ -160,7 +156,7 @@ fn entry_path(project: &Project, cache: &Path, index: usize) -> PathBuf {
     let manifest = project.manifest();
     let mask = &manifest.masks()[index];
     Cache::new(cache).entry_path(&CacheKey::new(
-        &mask.spec(),
+        &mask.recipe(),
         mask.encoding,
         mask.compression,
     ))

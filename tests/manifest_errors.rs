@@ -366,3 +366,105 @@ Manifest(
     assert_eq!((err.line(), err.column()), (6, 89));
     assert_eq!((err.mask_name(), err.field()), (Some("y"), Some("density")));
 }
+
+/// A one-mask manifest in `dir` whose mask is `fields` (one line, inside the parentheses).
+fn image_manifest(dir: &std::path::Path, fields: &str) -> std::path::PathBuf {
+    let path = dir.join("assets.ron");
+    std::fs::write(
+        &path,
+        format!("(\n    masks: [\n        ({fields}),\n    ],\n)\n"),
+    )
+    .unwrap();
+    path
+}
+
+fn load_error(path: &std::path::Path) -> ManifestError {
+    match Manifest::load(path) {
+        Err(Error::Manifest(e)) => *e,
+        other => panic!("expected a manifest error, got {other:?}"),
+    }
+}
+
+#[test]
+fn image_kinds_load_their_image_relative_to_the_manifest() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data");
+    std::fs::copy(data.join("sky_16x8.png"), dir.path().join("sky.png")).unwrap();
+    std::fs::copy(data.join("black_4x4.png"), dir.path().join("black.png")).unwrap();
+    std::fs::write(dir.path().join("notes.txt"), "not an image").unwrap();
+    let head = r#"name: "sky", kind: EnvironmentMap, size: (8, 8, 4), seed: 1, encoding: Unorm16"#;
+
+    let ok = image_manifest(dir.path(), &format!(r#"{head}, image: "sky.png""#));
+    let manifest = Manifest::load(&ok).unwrap();
+    let image = manifest.masks()[0].image.as_ref().unwrap();
+    assert_eq!(image.path, dir.path().join("sky.png"));
+
+    // Each problem names line 3, the mask and the field, at the field's value.
+    let col = head.len() + 19; // 8 spaces, "(", head, ", image: " -> the value's column
+    let cases = [
+        (format!(r#"{head}, image: "missing.png""#), "cannot read"),
+        (format!(r#"{head}, image: "black.png""#), "zero"),
+        (format!(r#"{head}, image: "notes.txt""#), "notes.txt"),
+    ];
+    for (fields, message) in cases {
+        let err = load_error(&image_manifest(dir.path(), &fields));
+        assert_eq!(
+            (err.line(), err.column(), err.field(), err.mask_name()),
+            (3, col, Some("image"), Some("sky")),
+            "{err}"
+        );
+        assert!(err.message().contains(message), "{err}");
+        assert!(
+            err.to_string().starts_with(&format!("{}:3:", ok.display())),
+            "{err}"
+        );
+    }
+
+    // An image kind without `image`, and `image` on a kind that takes none.
+    let err = load_error(&image_manifest(dir.path(), head));
+    assert_eq!(err.field(), Some("image"));
+    assert!(err.message().starts_with("missing"), "{err}");
+    let err = load_error(&image_manifest(
+        dir.path(),
+        r#"name: "v", kind: Vec2, size: (8, 8, 4), seed: 1, image: "sky.png", encoding: Unorm8"#,
+    ));
+    assert_eq!(err.field(), Some("image"));
+    assert!(err.message().contains("does not apply to Vec2"), "{err}");
+}
+
+#[test]
+fn fields_that_do_not_apply_to_a_kind_are_refused() {
+    for (kind, field) in [
+        ("Vec2", "density: 0.2"),
+        ("UnitVec3", "sigma_time: 2.0"),
+        ("Vec2", "octahedral: true"),
+        ("Scalar", "swaps_per_pixel: 4.0"),
+        ("Scalar", "sigma_value: 1.0"),
+        ("White", "sigma: 1.0"),
+        ("TellusimLayered", "kernel_tolerance: 1e-3"),
+    ] {
+        let text = format!(
+            "(masks: [(name: \"m\", kind: {kind}, size: (8, 8, 4), seed: 1, {field}, \
+             encoding: Unorm8)])"
+        );
+        let err = error(&text);
+        let name = field.split(':').next().unwrap();
+        assert_eq!(err.field(), Some(name), "{kind} {field}: {err}");
+        assert!(
+            err.message()
+                .starts_with(&format!("does not apply to {kind} masks")),
+            "{err}"
+        );
+    }
+    // Vector fields out of range name themselves.
+    let err = error(
+        "(masks: [(name: \"m\", kind: Vec2, size: (8, 8, 4), seed: 1, swaps_per_pixel: -1.0, \
+         encoding: Unorm8)])",
+    );
+    assert_eq!(err.field(), Some("swaps_per_pixel"));
+    let err = error(
+        "(masks: [(name: \"m\", kind: Vec2, size: (8, 8, 4), seed: 1, sigma_value: NaN, \
+         encoding: Unorm8)])",
+    );
+    assert_eq!(err.field(), Some("sigma_value"));
+}

@@ -2,9 +2,9 @@
 //!
 //! Each entry is the finished `.stbn` blob, stored as `<dir>/<key>.stbn` where the key is the
 //! BLAKE3 hash of a canonical description of everything that determines the blob's bytes: the
-//! [`MaskSpec`] fields, the encoding and compression, [`GENERATOR_VERSION`], the `.stbn` format
-//! version and [`DEFLATE_LEVEL`]. Mask names are not part of the
-//! key, so equal masks under different names share an entry.
+//! [`Recipe`] (generator, spec fields, image content hash, layout), the encoding and compression,
+//! [`GENERATOR_VERSION`], the `.stbn` format version and [`DEFLATE_LEVEL`]. Mask names are not
+//! part of the key, so equal masks under different names share an entry.
 //!
 //! * Writes go to a uniquely named temporary file in the cache directory, renamed over the entry:
 //!   concurrent builds each write whole files, and readers never see a partial one.
@@ -19,11 +19,12 @@
 use std::io::{self, Write as _};
 use std::path::{Path, PathBuf};
 
-use stbn_gen::{MaskSpec, SpecError};
-use stbn_runtime::{Compression, Encoding, MaskHeader, PackedStbn, ValueMap};
+use stbn_gen::VectorSpecError;
+use stbn_runtime::{Compression, Encoding, MaskHeader, PackedStbn};
 
 use crate::Error;
-use crate::encode::{DEFLATE_LEVEL, encode_volume};
+use crate::encode::DEFLATE_LEVEL;
+use crate::recipe::Recipe;
 
 /// Version of the generator's output, part of every cache key.
 ///
@@ -39,10 +40,10 @@ pub const CACHE_DIR_ENV: &str = "STBN_CACHE_DIR";
 pub struct CacheKey(blake3::Hash);
 
 impl CacheKey {
-    /// The key of the blob that `spec` encoded with `encoding` and `compression` produces.
-    pub fn new(spec: &MaskSpec, encoding: Encoding, compression: Compression) -> CacheKey {
+    /// The key of the blob that `recipe` encoded with `encoding` and `compression` produces.
+    pub fn new(recipe: &Recipe, encoding: Encoding, compression: Compression) -> CacheKey {
         CacheKey(blake3::hash(
-            canonical_description(spec, encoding, compression).as_bytes(),
+            canonical_description(recipe, encoding, compression).as_bytes(),
         ))
     }
 
@@ -53,32 +54,15 @@ impl CacheKey {
 }
 
 /// One line per input, floats as their exact bit patterns.
-fn canonical_description(spec: &MaskSpec, encoding: Encoding, compression: Compression) -> String {
-    let MaskSpec {
-        width,
-        height,
-        depth,
-        seed,
-        sigma_xy,
-        sigma_z,
-        initial_density,
-        topology,
-        kernel_tolerance,
-    } = spec;
+fn canonical_description(recipe: &Recipe, encoding: Encoding, compression: Compression) -> String {
     format!(
         "stbn-build-support cache entry\n\
          generator_version={GENERATOR_VERSION}\n\
          stbn_format_version={}\n\
          deflate_level={DEFLATE_LEVEL}\n\
-         width={width}\nheight={height}\ndepth={depth}\nseed={seed}\n\
-         sigma_xy={:016x}\nsigma_z={:016x}\ninitial_density={:016x}\nkernel_tolerance={:016x}\n\
-         topology={}\nencoding={encoding:?}\ncompression={compression:?}\n",
+         encoding={encoding:?}\ncompression={compression:?}\n{}",
         MaskHeader::FORMAT_VERSION,
-        sigma_xy.to_bits(),
-        sigma_z.to_bits(),
-        initial_density.to_bits(),
-        kernel_tolerance.to_bits(),
-        topology.name(),
+        recipe.canonical_description(),
     )
 }
 
@@ -128,22 +112,21 @@ impl Cache {
         self.dir.join(format!("{}.stbn", key.to_hex()))
     }
 
-    /// The blob for `spec` with `encoding` and `compression`: from the cache if a valid entry
-    /// exists, else generated with [`stbn_gen::generate`], encoded with [`encode_volume`] and
-    /// stored.
+    /// The blob for `recipe` with `encoding` and `compression`: from the cache if a valid entry
+    /// exists, else made with [`Recipe::make`] and stored.
     ///
     /// # Errors
-    /// Only if `spec` is invalid; cache problems become [`Fetched::warnings`].
+    /// Only if the recipe's spec is invalid; cache problems become [`Fetched::warnings`].
     pub fn fetch(
         &self,
-        spec: &MaskSpec,
+        recipe: &Recipe,
         encoding: Encoding,
         compression: Compression,
-    ) -> Result<Fetched, SpecError> {
-        let path = self.entry_path(&CacheKey::new(spec, encoding, compression));
+    ) -> Result<Fetched, VectorSpecError> {
+        let path = self.entry_path(&CacheKey::new(recipe, encoding, compression));
         let mut warnings = Vec::new();
         let status = match std::fs::read(&path) {
-            Ok(blob) => match verify(&blob, spec, encoding, compression) {
+            Ok(blob) => match verify(&blob, recipe, encoding, compression) {
                 Ok(()) => {
                     return Ok(Fetched {
                         blob,
@@ -176,8 +159,7 @@ impl Cache {
                 CacheStatus::Miss
             }
         };
-        let volume = stbn_gen::generate(spec)?;
-        let blob = encode_volume(&volume, encoding, compression);
+        let (_, blob) = recipe.make(encoding, compression)?;
         let stored = match write_atomically(&path, &blob) {
             Ok(()) => true,
             Err(e) => {
@@ -198,49 +180,47 @@ impl Cache {
 }
 
 /// Checks that `blob` is a valid `.stbn` blob (header, length, payload CRC) describing exactly
-/// the mask `spec`, `encoding` and `compression` produce.
+/// the mask `recipe`, `encoding` and `compression` produce.
 fn verify(
     blob: &[u8],
-    spec: &MaskSpec,
+    recipe: &Recipe,
     encoding: Encoding,
     compression: Compression,
 ) -> Result<(), String> {
     let packed = PackedStbn::from_bytes(blob).map_err(|e| e.to_string())?;
     let h = packed.header();
-    let found = (
-        h.width,
-        h.height,
-        h.depth,
+    let (width, height, depth) = recipe.size();
+    let layout = recipe.layout();
+    let describe = |(w, h, d): (u32, u32, u32),
+                    channels: u8,
+                    e: Encoding,
+                    c: Compression,
+                    layout: (stbn_runtime::Space, stbn_runtime::ValueMap)| {
+        format!(
+            "{w}x{h}x{d}, {channels} channel(s), {e:?}, {c:?}, {:?}/{:?}",
+            layout.0, layout.1
+        )
+    };
+    let found = describe(
+        (h.width, h.height, h.depth),
         h.channels,
         h.encoding,
         h.compression,
-        h.value_map,
+        (h.space, h.value_map),
     );
-    let expected = (
-        spec.width,
-        spec.height,
-        spec.depth,
-        1,
+    let expected = describe(
+        (width, height, depth),
+        layout.channels,
         encoding,
         compression,
-        ValueMap::Unit,
+        (layout.space, layout.value_map),
     );
     if found == expected {
         Ok(())
     } else {
         Err(format!(
-            "header describes {}x{}x{} with {} channel(s), {:?}, {:?}, {:?}; expected {}x{}x{}, \
-             1 channel, {encoding:?}, {compression:?}, Unit",
-            h.width,
-            h.height,
-            h.depth,
-            h.channels,
-            h.encoding,
-            h.compression,
-            h.value_map,
-            spec.width,
-            spec.height,
-            spec.depth,
+            "header describes {found} (size, channels, encoding, compression, space/value map); \
+             expected {expected}"
         ))
     }
 }
@@ -309,12 +289,20 @@ pub fn target_dir(out_dir: &Path, cargo_target_dir: Option<&Path>) -> PathBuf {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use stbn_gen::EnergyTopology;
+    use crate::encode::Layout;
+    use stbn_gen::baselines::BaselineKind;
+    use stbn_gen::{EnergyTopology, MaskSpec, SampleSpace, VectorSpec};
 
     #[test]
     fn keys_separate_every_input() {
         let base = MaskSpec::new(8, 8, 4, 1);
-        let key = |spec: &MaskSpec| CacheKey::new(spec, Encoding::Unorm8, Compression::None);
+        let key = |spec: &MaskSpec| {
+            CacheKey::new(
+                &Recipe::VoidAndCluster(spec.clone()),
+                Encoding::Unorm8,
+                Compression::None,
+            )
+        };
         let variants = [
             MaskSpec {
                 width: 9,
@@ -352,8 +340,34 @@ mod tests {
         ];
         let mut keys: Vec<CacheKey> = variants.iter().map(key).collect();
         keys.push(key(&base));
-        keys.push(CacheKey::new(&base, Encoding::Unorm16, Compression::None));
-        keys.push(CacheKey::new(&base, Encoding::Unorm8, Compression::Lz4));
+        let plain = Recipe::VoidAndCluster(base.clone());
+        keys.push(CacheKey::new(&plain, Encoding::Unorm16, Compression::None));
+        keys.push(CacheKey::new(&plain, Encoding::Unorm8, Compression::Lz4));
+        for kind in [BaselineKind::White, BaselineKind::GoldenRatio2D] {
+            let recipe = Recipe::Baseline(kind, base.clone());
+            keys.push(CacheKey::new(&recipe, Encoding::Unorm8, Compression::None));
+        }
+        let vector = |space: SampleSpace, octahedral: bool, edit: &dyn Fn(&mut VectorSpec)| {
+            let mut spec = VectorSpec::new(8, 8, 4, 1, space);
+            edit(&mut spec);
+            let recipe = Recipe::Vector {
+                layout: Layout::new(&spec.space, octahedral),
+                spec,
+                image_hash: None,
+            };
+            CacheKey::new(&recipe, Encoding::Unorm8, Compression::None)
+        };
+        keys.push(vector(SampleSpace::Vec { dims: 2 }, true, &|_| {}));
+        keys.push(vector(SampleSpace::Vec { dims: 3 }, true, &|_| {}));
+        keys.push(vector(SampleSpace::UnitVec3, true, &|_| {}));
+        keys.push(vector(SampleSpace::UnitVec3, false, &|_| {}));
+        keys.push(vector(SampleSpace::UnitVec3, true, &|s| {
+            s.sigma_value = 0.5
+        }));
+        keys.push(vector(SampleSpace::UnitVec3, true, &|s| {
+            s.swaps_per_pixel = 0.5
+        }));
+        keys.push(vector(SampleSpace::UnitVec3, true, &|s| s.seed = 9));
         let unique: std::collections::HashSet<_> = keys.iter().collect();
         assert_eq!(unique.len(), keys.len());
         assert_eq!(key(&base), key(&base.clone()));
@@ -405,17 +419,26 @@ mod tests {
 
     #[test]
     fn verify_rejects_other_masks() {
-        let spec = MaskSpec::new(4, 4, 2, 3);
-        let volume = stbn_gen::generate(&spec).unwrap();
-        let blob = encode_volume(&volume, Encoding::Unorm8, Compression::None);
+        let spec = Recipe::VoidAndCluster(MaskSpec::new(4, 4, 2, 3));
+        let (_, blob) = spec.make(Encoding::Unorm8, Compression::None).unwrap();
         assert_eq!(
             verify(&blob, &spec, Encoding::Unorm8, Compression::None),
             Ok(())
         );
         let err = verify(&blob, &spec, Encoding::Unorm16, Compression::None).unwrap_err();
-        assert!(err.contains("expected 4x4x2"), "{err}");
-        let other = MaskSpec::new(4, 4, 3, 3);
+        assert!(
+            err.contains("expected 4x4x2, 1 channel(s), Unorm16, None, Scalar/Unit"),
+            "{err}"
+        );
+        let other = Recipe::VoidAndCluster(MaskSpec::new(4, 4, 3, 3));
         assert!(verify(&blob, &other, Encoding::Unorm8, Compression::None).is_err());
+        let vector = Recipe::Vector {
+            spec: VectorSpec::new(4, 4, 2, 3, SampleSpace::Vec { dims: 1 }),
+            layout: Layout::new(&SampleSpace::Vec { dims: 1 }, true),
+            image_hash: None,
+        };
+        // Same size, one channel, but the header says Scalar, not Vec.
+        assert!(verify(&blob, &vector, Encoding::Unorm8, Compression::None).is_err());
         let mut corrupt = blob.clone();
         *corrupt.last_mut().unwrap() ^= 1;
         let err = verify(&corrupt, &spec, Encoding::Unorm8, Compression::None).unwrap_err();

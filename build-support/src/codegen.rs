@@ -5,7 +5,7 @@ use std::path::Path;
 
 use stbn_runtime::{Compression, Encoding, MaskHeader};
 
-use crate::{Error, MaskEntry};
+use crate::{Error, MaskEntry, Method};
 
 /// Alignment of embedded blobs in bytes: the payload starts at offset 64, so it is 64-byte
 /// aligned too (a cache line; more than any element type needs).
@@ -55,15 +55,20 @@ pub fn assets_rs(manifest_path: &Path, masks: &[EmbeddedMask<'_>]) -> Result<Str
 fn declare(out: &mut String, mask: &EmbeddedMask<'_>, path: &str) {
     let entry = mask.entry;
     let (width, height, frames) = entry.size;
+    let channels = entry.recipe().layout().channels;
     let decoded = u64::from(width)
         * u64::from(height)
         * u64::from(frames)
+        * u64::from(channels)
         * entry.encoding.bytes_per_element() as u64;
     let payload = mask.blob_len.saturating_sub(MaskHeader::SIZE);
     let values = match entry.encoding {
         Encoding::Unorm8 => "Unorm8: 8-bit levels `q`, sampled as `(q + 0.5) / 256`",
         Encoding::Unorm16 => "Unorm16: 16-bit levels `q`, sampled as `(q + 0.5) / 65536`",
-        Encoding::F32 => "F32: `(rank + 0.5) / (width · height)` stored as `f32`",
+        Encoding::F32 if channels == 1 && entry.kind.method() != Method::Swap => {
+            "F32: `(rank + 0.5) / (width · height)` stored as `f32`"
+        }
+        Encoding::F32 => "F32: each channel stored as `f32`",
     };
     let (ty, storage) = match entry.compression {
         Compression::None => (
@@ -84,6 +89,19 @@ fn declare(out: &mut String, mask: &EmbeddedMask<'_>, path: &str) {
     };
     let name = &entry.name;
     let static_name = entry.static_name();
+    let params = match entry.kind.method() {
+        Method::VoidAndCluster(_) => format!(
+            "Seed {}; σ {} pixels in space, {} frames in time.\n/// * Initial density {}; kernel \
+             tolerance {}.",
+            entry.seed, entry.sigma, entry.sigma_time, entry.density, entry.kernel_tolerance
+        ),
+        Method::Baseline(_) => format!("Seed {}.", entry.seed),
+        Method::Swap => format!(
+            "Seed {}; swap optimiser with σ {} pixels/frames, value σ {}, {} swaps per pixel.\n\
+             /// * Read it with `sample_vector` / `sample_vec2..4` / `sample_pdf`.",
+            entry.seed, entry.sigma, entry.sigma_value, entry.swaps_per_pixel
+        ),
+    };
     // `{:?}` of a `str` is a valid Rust string literal.
     let _ = write!(
         out,
@@ -91,8 +109,7 @@ fn declare(out: &mut String, mask: &EmbeddedMask<'_>, path: &str) {
 /// `{name}`: {kind:?} mask, {description}.
 ///
 /// * Size: {width} × {height} pixels × {frames} frames.
-/// * Seed {seed}; σ {sigma} pixels in space, {sigma_time} frames in time.
-/// * Initial density {density}; kernel tolerance {tolerance}.
+/// * {params}
 /// * Encoding {values}.
 /// * Compression {storage}
 pub static {static_name}: ::stbn_runtime::{ty}<'static> =
@@ -105,11 +122,6 @@ pub static {static_name}: ::stbn_runtime::{ty}<'static> =
 "#,
         kind = entry.kind,
         description = entry.kind.description(),
-        seed = entry.seed,
-        sigma = entry.sigma,
-        sigma_time = entry.sigma_time,
-        density = entry.density,
-        tolerance = entry.kernel_tolerance,
     );
 }
 
@@ -128,6 +140,10 @@ mod tests {
             sigma_time: 2.0,
             density: 0.1,
             kernel_tolerance: 1e-3,
+            sigma_value: 1.0,
+            swaps_per_pixel: 16.0,
+            image: None,
+            octahedral: true,
             encoding: Encoding::Unorm16,
             compression,
         }

@@ -106,7 +106,7 @@ pub fn embed_with(config: &EmbedConfig) -> Result<EmbedReport, Error> {
             let start = Instant::now();
             let result = config
                 .cache
-                .fetch(&entry.spec(), entry.encoding, entry.compression);
+                .fetch(&entry.recipe(), entry.encoding, entry.compression);
             (result, start.elapsed())
         })
         .collect();

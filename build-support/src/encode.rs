@@ -1,7 +1,8 @@
-//! Turning a generated [`Volume`] into a `.stbn` blob: quantisation, compression, header.
+//! Turning a generated [`Volume`] or [`VectorVolume`] into a `.stbn` blob: quantisation,
+//! compression, header.
 
-use stbn_gen::Volume;
-use stbn_runtime::{Compression, Encoding, MaskHeader};
+use stbn_gen::{SampleSpace, VectorVolume, Volume};
+use stbn_runtime::{Compression, Encoding, MaskHeader, Space, ValueMap, octahedral_encode};
 
 /// The miniz_oxide level used for [`Compression::Deflate`] (0–10; 9 is zlib's "best").
 pub const DEFLATE_LEVEL: u8 = 9;
@@ -53,18 +54,173 @@ pub fn encode_payload(volume: &Volume, encoding: Encoding) -> Vec<u8> {
 /// If the stored payload exceeds `u32::MAX` bytes, which no volume within [`stbn_gen::MaskSpec`]'s
 /// limits (at most 2^26 pixels, 4 bytes each) can reach.
 pub fn encode_volume(volume: &Volume, encoding: Encoding, compression: Compression) -> Vec<u8> {
-    let decoded = encode_payload(volume, encoding);
+    let header = MaskHeader::new(volume.width(), volume.height(), volume.depth(), 1, encoding);
+    finish(header, encode_payload(volume, encoding), compression)
+}
+
+/// Compresses `decoded` and puts `header` (completed with the payload fields) in front.
+fn finish(header: MaskHeader, decoded: Vec<u8>, compression: Compression) -> Vec<u8> {
     let payload = match compression {
         Compression::None => decoded,
         Compression::Lz4 => lz4_flex::block::compress(&decoded),
         Compression::Deflate => miniz_oxide::deflate::compress_to_vec(&decoded, DEFLATE_LEVEL),
     };
-    let header = MaskHeader::new(volume.width(), volume.height(), volume.depth(), 1, encoding)
-        .with_payload(compression, &payload);
+    let header = header.with_payload(compression, &payload);
     let mut blob = Vec::with_capacity(MaskHeader::SIZE + payload.len());
     blob.extend_from_slice(&header.to_bytes());
     blob.extend_from_slice(&payload);
     blob
+}
+
+/// How a mask is laid out in a blob: the runtime [`Space`], the [`ValueMap`] of its value
+/// channels and the channel count (value channels plus the pdf channel, if any).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Layout {
+    /// What the values are samples of.
+    pub space: Space,
+    /// How value components are stored.
+    pub value_map: ValueMap,
+    /// Channels per voxel, 1..=4.
+    pub channels: u8,
+}
+
+impl Layout {
+    /// The layout of scalar masks ([`encode_volume`]): one `Unit` channel of [`Space::Scalar`].
+    pub const SCALAR: Layout = Layout {
+        space: Space::Scalar,
+        value_map: ValueMap::Unit,
+        channels: 1,
+    };
+
+    /// The layout of `space`: components in `[0, 1)` are stored as they are (`Unit`), signed
+    /// components as `c · 0.5 + 0.5` (`Signed`), 3D directions as their octahedral map when
+    /// `octahedral` (2 channels instead of 3), and image spaces add a pdf channel.
+    pub fn new(space: &SampleSpace, octahedral: bool) -> Layout {
+        let direction3 = |space| {
+            if octahedral {
+                (space, ValueMap::Octahedral, 2)
+            } else {
+                (space, ValueMap::Signed, 3)
+            }
+        };
+        let (space, value_map, value_channels) = match space {
+            SampleSpace::Vec { dims } => (Space::Vec, ValueMap::Unit, *dims),
+            SampleSpace::UnitVec1 => (Space::UnitVec, ValueMap::Signed, 1),
+            SampleSpace::UnitVec2 => (Space::UnitVec, ValueMap::Signed, 2),
+            SampleSpace::UnitVec3 => direction3(Space::UnitVec),
+            SampleSpace::UniformHemisphere => direction3(Space::UniformHemisphere),
+            SampleSpace::CosineHemisphere => direction3(Space::CosineHemisphere),
+            SampleSpace::ImagePoints(_) => (Space::ImagePoints, ValueMap::Unit, 2),
+            SampleSpace::EnvironmentDirections(_) => direction3(Space::EnvironmentDirections),
+        };
+        Layout {
+            space,
+            value_map,
+            channels: value_channels + u8::from(space.stores_pdf()),
+        }
+    }
+}
+
+/// `u` in `[0, 1]` as a Unorm element of `encoding` with midpoint decoding: `floor(u · 2^bits)`,
+/// clamped to the largest code; F32 stores `u`.
+fn push_unit(out: &mut Vec<u8>, u: f32, encoding: Encoding) {
+    let u = if u.is_finite() {
+        u.clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    match encoding {
+        Encoding::Unorm8 => out.push((f64::from(u) * 256.0).floor().min(255.0) as u8),
+        Encoding::Unorm16 => {
+            let q = (f64::from(u) * 65536.0).floor().min(65535.0) as u16;
+            out.extend_from_slice(&q.to_le_bytes());
+        }
+        Encoding::F32 => out.extend_from_slice(&u.to_le_bytes()),
+    }
+}
+
+/// `t` in `[0, 1]` as the full-range pdf element: Unorm `round(t · (2^bits - 1))`, F32 `t`.
+fn push_full_range(out: &mut Vec<u8>, t: f32, encoding: Encoding) {
+    let t = if t.is_finite() {
+        t.clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    match encoding {
+        Encoding::Unorm8 => out.push((f64::from(t) * 255.0).round() as u8),
+        Encoding::Unorm16 => {
+            out.extend_from_slice(&((f64::from(t) * 65535.0).round() as u16).to_le_bytes());
+        }
+        Encoding::F32 => out.extend_from_slice(&t.to_le_bytes()),
+    }
+}
+
+/// The decoded payload of `volume` stored as `layout` says, and the pdf range of its pdf channel
+/// (`(0, 0)` without one).
+///
+/// Element order `((z · height + y) · width + x) · channels + c`. Value components go through
+/// [`push_unit`]'s quantisation after the value map's inverse (`Signed`: `c · 0.5 + 0.5`;
+/// `Octahedral`: [`octahedral_encode`] then the same), so Unorm values decode to bin midpoints
+/// within half a bin of the generated value. The pdf channel is stored full-range,
+/// `(pdf - pdf_min) / (pdf_max - pdf_min)`, so the extremes are exact.
+pub fn encode_vector_payload(
+    volume: &VectorVolume,
+    layout: Layout,
+    encoding: Encoding,
+) -> (Vec<u8>, f32, f32) {
+    let dims = volume.dims();
+    let pdf = volume.pdf().filter(|_| layout.space.stores_pdf());
+    let (pdf_min, pdf_max) = pdf.map_or((0.0, 0.0), |pdf| {
+        pdf.iter().fold((f32::INFINITY, 0.0f32), |(lo, hi), &p| {
+            (lo.min(p), hi.max(p))
+        })
+    });
+    let pixels = volume.values().len() / dims;
+    let mut out =
+        Vec::with_capacity(pixels * usize::from(layout.channels) * encoding.bytes_per_element());
+    for (i, value) in volume.values().chunks_exact(dims).enumerate() {
+        match layout.value_map {
+            ValueMap::Unit => value.iter().for_each(|&v| push_unit(&mut out, v, encoding)),
+            ValueMap::Signed => value
+                .iter()
+                .for_each(|&v| push_unit(&mut out, v * 0.5 + 0.5, encoding)),
+            ValueMap::Octahedral => {
+                let e = octahedral_encode(glam::Vec3::new(value[0], value[1], value[2]));
+                push_unit(&mut out, e.x * 0.5 + 0.5, encoding);
+                push_unit(&mut out, e.y * 0.5 + 0.5, encoding);
+            }
+        }
+        if let Some(pdf) = pdf {
+            let range = pdf_max - pdf_min;
+            let t = if range > 0.0 {
+                (pdf[i] - pdf_min) / range
+            } else {
+                0.0
+            };
+            push_full_range(&mut out, t, encoding);
+        }
+    }
+    (out, pdf_min, pdf_max)
+}
+
+/// Encodes a vector volume as a complete `.stbn` blob laid out as `layout` (see
+/// [`encode_vector_payload`]), compressed like [`encode_volume`].
+pub fn encode_vector(
+    volume: &VectorVolume,
+    layout: Layout,
+    encoding: Encoding,
+    compression: Compression,
+) -> Vec<u8> {
+    let (decoded, pdf_min, pdf_max) = encode_vector_payload(volume, layout, encoding);
+    let header = MaskHeader::new(
+        volume.width(),
+        volume.height(),
+        volume.depth(),
+        layout.channels,
+        encoding,
+    )
+    .with_space(layout.space, layout.value_map, pdf_min, pdf_max);
+    finish(header, decoded, compression)
 }
 
 #[cfg(test)]

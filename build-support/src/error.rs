@@ -4,7 +4,7 @@ use std::fmt;
 use std::io;
 use std::path::{Path, PathBuf};
 
-use stbn_gen::SpecError;
+use stbn_gen::VectorSpecError;
 
 /// A problem in the manifest, with the place it was found.
 ///
@@ -100,8 +100,8 @@ pub enum Error {
     Generate {
         /// The mask's `name`.
         mask: String,
-        /// The generator's reason.
-        source: SpecError,
+        /// The generator's reason (scalar spec errors come as [`VectorSpecError::Spec`]).
+        source: VectorSpecError,
     },
 }
 

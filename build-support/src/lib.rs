@@ -23,7 +23,8 @@
 //!
 //! * [`Manifest::load`] / [`Manifest::parse`]: the validated list of [`MaskEntry`]s; every error is
 //!   a [`ManifestError`] naming file, line, column and field.
-//! * [`encode::encode_volume`]: a generated volume as a complete blob.
+//! * [`MaskEntry::recipe`] / [`Recipe::make`]: what to generate for a mask, generated and encoded.
+//! * [`encode::encode_volume`] / [`encode::encode_vector`]: a generated volume as a complete blob.
 //! * [`Cache`]: content-addressed blob cache with verified reads and atomic writes.
 //! * [`codegen::assets_rs`]: the module source.
 //! * [`embed`] / [`embed_with`] / [`embed_or_exit`]: all of the above for a build script.
@@ -34,6 +35,7 @@ mod embed;
 pub mod encode;
 mod error;
 pub mod manifest;
+pub mod recipe;
 mod source;
 
 pub use cache::{Cache, CacheKey, CacheStatus};
@@ -41,4 +43,5 @@ pub use embed::{
     ASSETS_RS, BLOB_DIR, EmbedConfig, EmbedReport, MaskReport, embed, embed_or_exit, embed_with,
 };
 pub use error::{Error, ManifestError};
-pub use manifest::{Manifest, MaskEntry, MaskKind};
+pub use manifest::{ImageSource, Manifest, MaskEntry, MaskKind, Method};
+pub use recipe::{Generated, Recipe};

@@ -5,36 +5,53 @@
 //!     masks: [
 //!         (
 //!             name: "scalar_64",      // ASCII Rust identifier; becomes the static SCALAR_64
-//!             kind: Scalar,           // Scalar | Blue2D | Blue3D
+//!             kind: Scalar,           // see MaskKind
 //!             size: (64, 64, 32),     // (width, height, frames)
 //!             seed: 7,
-//!             sigma: 1.9,             // optional, default 1.9
-//!             sigma_time: 1.9,        // optional, default = sigma
-//!             density: 0.1,           // optional, default 0.1, in (0, 0.5]
+//!             sigma: 1.9,             // optional, default 1.9 (Tellusim's convention and 1.6 for TellusimLayered)
+//!             sigma_time: 1.9,        // optional, default = sigma (void-and-cluster kinds)
+//!             density: 0.1,           // optional, default 0.1, in (0, 0.5] (void-and-cluster kinds)
 //!             kernel_tolerance: 5e-3, // optional, default 5e-3, in (0, 1)
 //!             encoding: Unorm8,       // Unorm8 | Unorm16 | F32
 //!             compression: Lz4,       // optional: None (default) | Lz4 | Deflate
+//!         ),
+//!         (
+//!             name: "sky_dirs",
+//!             kind: EnvironmentMap,   // a vector kind (swap optimiser)
+//!             size: (128, 128, 64),
+//!             seed: 1,
+//!             image: "sky.hdr",       // image kinds only; relative to the manifest
+//!             sigma_value: 1.0,       // optional, σs of the value term
+//!             swaps_per_pixel: 8.0,   // optional, the optimiser's budget
+//!             octahedral: true,       // optional, 3D unit kinds: store 2 octahedral channels (default)
+//!             encoding: Unorm16,
 //!         ),
 //!     ],
 //! )
 //! ```
 //!
-//! Unknown fields are errors. Optional fields may also be written `Some(…)`. Every error names the
-//! file, line, column and field ([`ManifestError`]).
+//! Unknown fields are errors, and so are fields that do not apply to the mask's kind (`density`
+//! on a vector mask, `image` on a scalar one). Optional fields may also be written `Some(…)`.
+//! Every error names the file, line, column and field ([`ManifestError`]); image files are read
+//! and checked (NaN, infinite, negative or all-zero luminance) while the manifest is parsed.
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use ron::error::SpannedError;
 use ron::extensions::Extensions;
 use serde::Deserialize;
-use stbn_gen::{EnergyTopology, MaskSpec, SpecError};
+use stbn_gen::baselines::BaselineKind;
+use stbn_gen::{
+    EnergyTopology, ImagePdf, MaskSpec, SampleSpace, SpecError, VectorSpec, VectorSpecError,
+};
 use stbn_runtime::{Compression, Encoding};
 
 use crate::source::{Pos, SourceMap};
 use crate::{Error, ManifestError};
 
-/// Which energy a mask is generated with.
+/// What a mask holds and how it is generated.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Deserialize)]
 pub enum MaskKind {
     /// Spatiotemporal blue noise (the STBN paper's scalar mask): blue within every frame and over
@@ -45,16 +62,102 @@ pub enum MaskKind {
     Blue2D,
     /// Isotropic 3D blue noise over (x, y, frame). [`EnergyTopology::Isotropic3D`].
     Blue3D,
+    /// White noise with exactly uniform frames (a random permutation per frame). A baseline.
+    White,
+    /// One 2D blue-noise frame animated by the golden ratio, `fract(v + frame·φ⁻¹)`, as an exact
+    /// integer rank rotation. A baseline.
+    GoldenRatio2D,
+    /// One 2D blue-noise frame shifted by a random offset per frame, `fract(v + r_frame)`. A
+    /// baseline (as Tellusim describes it).
+    RandomShift2D,
+    /// Tellusim's layered void-and-cluster: each frame seeded from the previous one flipped in X
+    /// and Y. A baseline.
+    TellusimLayered,
+    /// Uniform scalars in `[0, 1)`, optimised by the swap algorithm (the paper's "Vec1").
+    Vec1,
+    /// Uniform 2D vectors in `[0, 1)²`.
+    Vec2,
+    /// Uniform 3D vectors in `[0, 1)³`.
+    Vec3,
+    /// Uniform 4D vectors in `[0, 1)⁴`.
+    Vec4,
+    /// `±1` ("Unit Vec1").
+    UnitVec1,
+    /// Uniform unit vectors on the circle.
+    UnitVec2,
+    /// Uniform unit vectors on the sphere.
+    UnitVec3,
+    /// Uniform directions on the hemisphere `z ≥ 0`.
+    UniformHemisphere,
+    /// Cosine-weighted directions on the hemisphere `z ≥ 0` (pdf `z/π`).
+    CosineHemisphere,
+    /// Points in `[0, 1)²` importance-sampled from an image's luminance (field `image`); the pdf
+    /// is stored in a channel.
+    ImagePoints,
+    /// Directions importance-sampled from a latitude-longitude environment map (field `image`),
+    /// pdf per steradian stored in a channel.
+    EnvironmentMap,
+}
+
+/// How a [`MaskKind`] is generated, which decides the fields that apply to it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Method {
+    /// Void-and-cluster with this energy topology ([`stbn_gen::generate`]).
+    VoidAndCluster(EnergyTopology),
+    /// A baseline generator ([`stbn_gen::baselines::generate_baseline`]).
+    Baseline(BaselineKind),
+    /// The swap optimiser over vector values ([`stbn_gen::generate_vector`]).
+    Swap,
 }
 
 impl MaskKind {
-    /// The generator topology this kind maps to.
-    pub fn topology(self) -> EnergyTopology {
+    /// How masks of this kind are generated.
+    pub fn method(self) -> Method {
         match self {
-            MaskKind::Scalar => EnergyTopology::Spatiotemporal,
-            MaskKind::Blue2D => EnergyTopology::Independent2D,
-            MaskKind::Blue3D => EnergyTopology::Isotropic3D,
+            MaskKind::Scalar => Method::VoidAndCluster(EnergyTopology::Spatiotemporal),
+            MaskKind::Blue2D => Method::VoidAndCluster(EnergyTopology::Independent2D),
+            MaskKind::Blue3D => Method::VoidAndCluster(EnergyTopology::Isotropic3D),
+            MaskKind::White => Method::Baseline(BaselineKind::White),
+            MaskKind::GoldenRatio2D => Method::Baseline(BaselineKind::GoldenRatio2D),
+            MaskKind::RandomShift2D => Method::Baseline(BaselineKind::RandomShift2D),
+            MaskKind::TellusimLayered => Method::Baseline(BaselineKind::TellusimLayered),
+            _ => Method::Swap,
         }
+    }
+
+    /// `true` for the two kinds that need an `image`.
+    pub fn needs_image(self) -> bool {
+        matches!(self, MaskKind::ImagePoints | MaskKind::EnvironmentMap)
+    }
+
+    /// `true` for kinds of 3D unit vectors, which may be stored octahedrally.
+    pub fn is_direction3(self) -> bool {
+        matches!(
+            self,
+            MaskKind::UnitVec3
+                | MaskKind::UniformHemisphere
+                | MaskKind::CosineHemisphere
+                | MaskKind::EnvironmentMap
+        )
+    }
+
+    /// The sample space of a vector kind, `None` for scalar kinds; `image` is the loaded image of
+    /// the image kinds (they return `None` without one).
+    pub fn sample_space(self, image: Option<&Arc<ImagePdf>>) -> Option<SampleSpace> {
+        Some(match self {
+            MaskKind::Vec1 => SampleSpace::Vec { dims: 1 },
+            MaskKind::Vec2 => SampleSpace::Vec { dims: 2 },
+            MaskKind::Vec3 => SampleSpace::Vec { dims: 3 },
+            MaskKind::Vec4 => SampleSpace::Vec { dims: 4 },
+            MaskKind::UnitVec1 => SampleSpace::UnitVec1,
+            MaskKind::UnitVec2 => SampleSpace::UnitVec2,
+            MaskKind::UnitVec3 => SampleSpace::UnitVec3,
+            MaskKind::UniformHemisphere => SampleSpace::UniformHemisphere,
+            MaskKind::CosineHemisphere => SampleSpace::CosineHemisphere,
+            MaskKind::ImagePoints => SampleSpace::ImagePoints(image?.clone()),
+            MaskKind::EnvironmentMap => SampleSpace::EnvironmentDirections(image?.clone()),
+            _ => return None,
+        })
     }
 
     /// A one-line description for generated documentation.
@@ -63,7 +166,48 @@ impl MaskKind {
             MaskKind::Scalar => "spatiotemporal blue noise, blue in space and over time",
             MaskKind::Blue2D => "independent 2D blue noise per frame, white over time",
             MaskKind::Blue3D => "isotropic 3D blue noise over x, y and frames",
+            MaskKind::White => "white noise with exactly uniform frames (baseline)",
+            MaskKind::GoldenRatio2D => "2D blue noise animated by the golden ratio (baseline)",
+            MaskKind::RandomShift2D => "2D blue noise shifted randomly per frame (baseline)",
+            MaskKind::TellusimLayered => "Tellusim's layered void-and-cluster (baseline)",
+            MaskKind::Vec1 => "spatiotemporal blue-noise scalars from the swap optimiser",
+            MaskKind::Vec2 => "spatiotemporal blue-noise 2D vectors in [0, 1)²",
+            MaskKind::Vec3 => "spatiotemporal blue-noise 3D vectors in [0, 1)³",
+            MaskKind::Vec4 => "spatiotemporal blue-noise 4D vectors in [0, 1)⁴",
+            MaskKind::UnitVec1 => "spatiotemporal blue-noise signs (±1)",
+            MaskKind::UnitVec2 => "spatiotemporal blue-noise unit vectors on the circle",
+            MaskKind::UnitVec3 => "spatiotemporal blue-noise unit vectors on the sphere",
+            MaskKind::UniformHemisphere => {
+                "spatiotemporal blue-noise uniform hemisphere directions"
+            }
+            MaskKind::CosineHemisphere => {
+                "spatiotemporal blue-noise cosine-weighted hemisphere directions"
+            }
+            MaskKind::ImagePoints => {
+                "spatiotemporal blue-noise points importance-sampled from an image"
+            }
+            MaskKind::EnvironmentMap => {
+                "spatiotemporal blue-noise directions importance-sampled from an environment map"
+            }
         }
+    }
+}
+
+/// An image a mask is importance-sampled from, loaded and checked while the manifest is parsed.
+#[derive(Clone, Debug)]
+pub struct ImageSource {
+    /// The file, resolved against the manifest's directory.
+    pub path: PathBuf,
+    /// BLAKE3 of the file's bytes, part of the cache key.
+    pub hash: blake3::Hash,
+    /// The luminance pdf built from it.
+    pub pdf: Arc<ImagePdf>,
+}
+
+impl PartialEq for ImageSource {
+    /// Equal files: same path and content (the pdf follows from the content).
+    fn eq(&self, other: &Self) -> bool {
+        self.path == other.path && self.hash == other.hash
     }
 }
 
@@ -88,6 +232,16 @@ pub struct MaskEntry {
     pub density: f64,
     /// Kernel truncation tolerance in `(0, 1)` (default [`MaskSpec::DEFAULT_KERNEL_TOLERANCE`]).
     pub kernel_tolerance: f64,
+    /// Vector kinds: σs of the value term of the swap energy (default [`VectorSpec`]'s).
+    pub sigma_value: f64,
+    /// Vector kinds: the swap optimiser's budget in attempted swaps per pixel (default
+    /// [`VectorSpec`]'s).
+    pub swaps_per_pixel: f64,
+    /// Image kinds: the image the values are importance-sampled from.
+    pub image: Option<ImageSource>,
+    /// 3D unit-vector kinds: store two octahedral channels instead of three signed ones
+    /// (default `true`).
+    pub octahedral: bool,
     /// How values are stored.
     pub encoding: Encoding,
     /// How the payload is compressed (default [`Compression::None`]).
@@ -95,7 +249,9 @@ pub struct MaskEntry {
 }
 
 impl MaskEntry {
-    /// The generator specification of this mask.
+    /// The void-and-cluster parameters of this mask: what scalar kinds are generated from (the
+    /// 2D base mask for baselines). For vector kinds only the size and seed carry over; see
+    /// [`vector_spec`](Self::vector_spec).
     pub fn spec(&self) -> MaskSpec {
         MaskSpec {
             width: self.size.0,
@@ -105,9 +261,25 @@ impl MaskEntry {
             sigma_xy: self.sigma,
             sigma_z: self.sigma_time,
             initial_density: self.density,
-            topology: self.kind.topology(),
+            topology: match self.kind.method() {
+                Method::VoidAndCluster(topology) => topology,
+                _ => EnergyTopology::Independent2D,
+            },
             kernel_tolerance: self.kernel_tolerance,
         }
+    }
+
+    /// The swap optimiser's input for vector kinds; `None` for scalar kinds.
+    pub fn vector_spec(&self) -> Option<VectorSpec> {
+        let space = self
+            .kind
+            .sample_space(self.image.as_ref().map(|image| &image.pdf))?;
+        let mut spec = VectorSpec::new(self.size.0, self.size.1, self.size.2, self.seed, space);
+        spec.sigma_image = self.sigma;
+        spec.sigma_value = self.sigma_value;
+        spec.swaps_per_pixel = self.swaps_per_pixel;
+        spec.kernel_tolerance = self.kernel_tolerance;
+        Some(spec)
     }
 
     /// The name of the generated static: `name` in upper case (`scalar_64` → `SCALAR_64`).
@@ -154,12 +326,45 @@ impl Manifest {
             .map_err(|e| source.ron_error(&e))?;
         let mut masks = Vec::with_capacity(raw.masks.len());
         let mut statics: HashMap<String, usize> = HashMap::new();
+        let base_dir = path.as_ref().parent().unwrap_or(Path::new(""));
         for (index, raw) in raw.masks.into_iter().enumerate() {
-            let entry = raw.resolve();
+            let mut entry = raw.resolve();
             let field_error = |field: &str, message: String| {
                 source.field_error(index, &entry.name, field, message)
             };
             check_identifier(&entry.name).map_err(|m| field_error("name", m))?;
+            if let Some(field) = raw
+                .written_fields()
+                .into_iter()
+                .find(|field| !applies(entry.kind, field))
+            {
+                return Err(field_error(
+                    field,
+                    format!(
+                        "does not apply to {:?} masks (it applies to {})",
+                        entry.kind,
+                        applies_to(field)
+                    ),
+                ));
+            }
+            match (&raw.image, entry.kind.needs_image()) {
+                (None, true) => {
+                    return Err(field_error(
+                        "image",
+                        format!(
+                            "missing: {:?} masks are importance-sampled from an image; add                              `image: \"path/to/file.hdr\"` (PNG or Radiance .hdr, relative to                              the manifest)",
+                            entry.kind
+                        ),
+                    ));
+                }
+                (Some(file), true) => {
+                    let image = load_image(&base_dir.join(file))
+                        .map_err(|message| field_error("image", message))?;
+                    entry.image = Some(image);
+                }
+                // A written `image` on another kind was refused above.
+                _ => {}
+            }
             if let Some(&first) = statics.get(&entry.static_name()) {
                 let other: &MaskEntry = &masks[first];
                 let line = source.field_pos(first, "name").line;
@@ -172,8 +377,24 @@ impl Manifest {
                     ),
                 ));
             }
-            if let Err(e) = entry.spec().validate() {
-                let (field, message) = spec_error_field(&e, raw.sigma_time.is_some());
+            let validated = match entry.vector_spec() {
+                Some(vector) => vector.validate(),
+                None => entry.spec().validate().map_err(VectorSpecError::Spec),
+            };
+            if let Err(e) = validated {
+                let (field, message) = match &e {
+                    VectorSpecError::Spec(e) => spec_error_field(e, raw.sigma_time.is_some()),
+                    VectorSpecError::TooLarge { .. } => ("size", e.to_string()),
+                    VectorSpecError::InvalidBudget(value) => (
+                        "swaps_per_pixel",
+                        format!(
+                            "must be in 0..={} (got {value})",
+                            VectorSpec::MAX_SWAPS_PER_PIXEL
+                        ),
+                    ),
+                    // Every Vec kind has 1..=4 dimensions; keep the message if that changes.
+                    VectorSpecError::InvalidDims(_) => ("kind", e.to_string()),
+                };
                 return Err(field_error(field, message));
             }
             statics.insert(entry.static_name(), index);
@@ -217,6 +438,14 @@ struct RawMask {
     density: Option<f64>,
     #[serde(default)]
     kernel_tolerance: Option<f64>,
+    #[serde(default)]
+    sigma_value: Option<f64>,
+    #[serde(default)]
+    swaps_per_pixel: Option<f64>,
+    #[serde(default)]
+    image: Option<String>,
+    #[serde(default)]
+    octahedral: Option<bool>,
     #[serde(with = "EncodingDef")]
     encoding: Encoding,
     #[serde(default = "no_compression", with = "CompressionDef")]
@@ -224,8 +453,31 @@ struct RawMask {
 }
 
 impl RawMask {
+    /// The optional fields this entry writes.
+    fn written_fields(&self) -> Vec<&'static str> {
+        [
+            ("sigma", self.sigma.is_some()),
+            ("sigma_time", self.sigma_time.is_some()),
+            ("density", self.density.is_some()),
+            ("kernel_tolerance", self.kernel_tolerance.is_some()),
+            ("sigma_value", self.sigma_value.is_some()),
+            ("swaps_per_pixel", self.swaps_per_pixel.is_some()),
+            ("image", self.image.is_some()),
+            ("octahedral", self.octahedral.is_some()),
+        ]
+        .into_iter()
+        .filter_map(|(field, written)| written.then_some(field))
+        .collect()
+    }
+
+    /// The entry with defaults filled in (the image is loaded by the caller).
     fn resolve(&self) -> MaskEntry {
-        let sigma = self.sigma.unwrap_or(MaskSpec::DEFAULT_SIGMA);
+        let default_sigma = match self.kind {
+            MaskKind::TellusimLayered => stbn_gen::tellusim::DEFAULT_SIGMA,
+            _ => MaskSpec::DEFAULT_SIGMA,
+        };
+        let sigma = self.sigma.unwrap_or(default_sigma);
+        let vector_defaults = VectorSpec::new(1, 1, 1, 0, SampleSpace::Vec { dims: 1 });
         MaskEntry {
             name: self.name.clone(),
             kind: self.kind,
@@ -237,6 +489,12 @@ impl RawMask {
             kernel_tolerance: self
                 .kernel_tolerance
                 .unwrap_or(MaskSpec::DEFAULT_KERNEL_TOLERANCE),
+            sigma_value: self.sigma_value.unwrap_or(vector_defaults.sigma_value),
+            swaps_per_pixel: self
+                .swaps_per_pixel
+                .unwrap_or(vector_defaults.swaps_per_pixel),
+            image: None,
+            octahedral: self.octahedral.unwrap_or(true),
             encoding: self.encoding,
             compression: self.compression,
         }
@@ -245,6 +503,51 @@ impl RawMask {
 
 fn no_compression() -> Compression {
     Compression::None
+}
+
+/// Whether the optional `field` applies to masks of `kind`.
+fn applies(kind: MaskKind, field: &str) -> bool {
+    match (kind.method(), field) {
+        (Method::VoidAndCluster(_), "sigma" | "sigma_time" | "density" | "kernel_tolerance") => {
+            true
+        }
+        (
+            Method::Baseline(BaselineKind::GoldenRatio2D | BaselineKind::RandomShift2D),
+            "sigma" | "density" | "kernel_tolerance",
+        ) => true,
+        (Method::Baseline(BaselineKind::TellusimLayered), "sigma" | "density") => true,
+        (Method::Swap, "sigma" | "sigma_value" | "swaps_per_pixel" | "kernel_tolerance") => true,
+        (Method::Swap, "image") => kind.needs_image(),
+        (Method::Swap, "octahedral") => kind.is_direction3(),
+        _ => false,
+    }
+}
+
+/// The kinds an optional field applies to, for error messages.
+fn applies_to(field: &str) -> &'static str {
+    match field {
+        "sigma" => "every kind but White",
+        "sigma_time" => "Scalar, Blue2D and Blue3D",
+        "density" => "Scalar, Blue2D, Blue3D, GoldenRatio2D, RandomShift2D and TellusimLayered",
+        "kernel_tolerance" => {
+            "Scalar, Blue2D, Blue3D, GoldenRatio2D, RandomShift2D and the vector kinds"
+        }
+        "sigma_value" | "swaps_per_pixel" => "the vector kinds (Vec1 … EnvironmentMap)",
+        "image" => "ImagePoints and EnvironmentMap",
+        "octahedral" => "UnitVec3, UniformHemisphere, CosineHemisphere and EnvironmentMap",
+        _ => "no kind",
+    }
+}
+
+/// Reads and checks the image at `path`; the error message names the file.
+fn load_image(path: &Path) -> Result<ImageSource, String> {
+    let bytes = std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let pdf = ImagePdf::load(path).map_err(|e| e.to_string())?;
+    Ok(ImageSource {
+        path: path.to_owned(),
+        hash: blake3::hash(&bytes),
+        pdf: Arc::new(pdf),
+    })
 }
 
 /// Deserialises [`stbn_runtime::Encoding`], which has no serde support of its own.
@@ -313,10 +616,10 @@ fn spec_error_field(error: &SpecError, has_sigma_time: bool) -> (&'static str, S
         }
         SpecError::TooLarge { .. } => ("size", error.to_string()),
         SpecError::InvalidSigma { field, value } => (
-            if *field == "sigma_z" && has_sigma_time {
-                "sigma_time"
-            } else {
-                "sigma"
+            match *field {
+                "sigma_z" if has_sigma_time => "sigma_time",
+                "sigma_value" => "sigma_value",
+                _ => "sigma",
             },
             format!("must be finite and > 0 (got {value})"),
         ),
@@ -437,7 +740,11 @@ impl Source<'_> {
 /// The values of the enum-valued field `field`, for messages about malformed values.
 fn enum_variants(field: &str) -> Option<&'static str> {
     match field {
-        "kind" => Some("`Scalar`, `Blue2D`, `Blue3D`"),
+        "kind" => Some(
+            "`Scalar`, `Blue2D`, `Blue3D`, `White`, `GoldenRatio2D`, `RandomShift2D`, \
+             `TellusimLayered`, `Vec1`, `Vec2`, `Vec3`, `Vec4`, `UnitVec1`, `UnitVec2`, \
+             `UnitVec3`, `UniformHemisphere`, `CosineHemisphere`, `ImagePoints`, `EnvironmentMap`",
+        ),
         "encoding" => Some("`Unorm8`, `Unorm16`, `F32`"),
         "compression" => Some("`None`, `Lz4`, `Deflate`"),
         _ => None,

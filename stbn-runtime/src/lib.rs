@@ -94,6 +94,8 @@ mod sampler;
 mod vector;
 
 pub use error::Error;
+/// The glam version whose `Vec2`/`Vec3`/`Vec4` the vector samplers return.
+pub use glam;
 pub use header::{Compression, Encoding, MAX_DECODED_BYTES, MaskHeader, Space, ValueMap};
 #[cfg(feature = "alloc")]
 pub use packed::OwnedStbn;

@@ -1,0 +1,181 @@
+//! [`Recipe`]: everything that determines a mask's blob, and how to make it.
+//!
+//! A [`MaskEntry`] names a kind and its parameters; its recipe is the generator input
+//! ([`MaskSpec`] or [`VectorSpec`]), the baseline or topology that consumes it, and for vector
+//! masks the blob layout. The cache keys blobs by the recipe's canonical description; the
+//! encoder and the CLI generate from it.
+
+use stbn_gen::baselines::{self, BaselineKind};
+use stbn_gen::{EnergyTrace, MaskSpec, VectorSpec, VectorSpecError, VectorVolume, Volume};
+use stbn_runtime::{Compression, Encoding};
+
+use crate::encode::{Layout, encode_vector, encode_volume};
+use crate::manifest::{MaskEntry, Method};
+
+/// What to generate for one mask.
+#[derive(Clone, Debug)]
+pub enum Recipe {
+    /// Void-and-cluster over the spec's topology.
+    VoidAndCluster(MaskSpec),
+    /// A baseline generator, from the spec's size, seed and (where it uses them) σ, density and
+    /// tolerance.
+    Baseline(BaselineKind, MaskSpec),
+    /// The swap optimiser.
+    Vector {
+        /// The optimiser's input (space, size, seed, σs, budget).
+        spec: VectorSpec,
+        /// How the result is stored.
+        layout: Layout,
+        /// BLAKE3 of the image file of image spaces.
+        image_hash: Option<blake3::Hash>,
+    },
+}
+
+/// A generated mask before encoding.
+#[derive(Clone, Debug)]
+pub enum Generated {
+    /// Per-slice ranks of a scalar mask.
+    Scalar(Volume),
+    /// A vector mask and the optimiser's energy trace.
+    Vector {
+        /// The values (and pdfs).
+        volume: VectorVolume,
+        /// Energy after each optimiser pass.
+        trace: EnergyTrace,
+    },
+}
+
+impl MaskEntry {
+    /// This mask's recipe.
+    pub fn recipe(&self) -> Recipe {
+        match self.kind.method() {
+            Method::VoidAndCluster(_) => Recipe::VoidAndCluster(self.spec()),
+            Method::Baseline(kind) => Recipe::Baseline(kind, self.spec()),
+            Method::Swap => {
+                let spec = self
+                    .vector_spec()
+                    .expect("a parsed vector entry has its sample space (and image)");
+                Recipe::Vector {
+                    layout: Layout::new(&spec.space, self.octahedral),
+                    spec,
+                    image_hash: self.image.as_ref().map(|image| image.hash),
+                }
+            }
+        }
+    }
+}
+
+impl Recipe {
+    /// Generates the mask. Deterministic: equal recipes give equal results for any thread count.
+    ///
+    /// # Errors
+    /// The generator's, if the spec is out of range (a parsed manifest never is); scalar errors
+    /// come as [`VectorSpecError::Spec`].
+    pub fn generate(&self) -> Result<Generated, VectorSpecError> {
+        Ok(match self {
+            Recipe::VoidAndCluster(spec) => Generated::Scalar(stbn_gen::generate(spec)?),
+            Recipe::Baseline(kind, spec) => {
+                Generated::Scalar(baselines::generate_baseline(*kind, spec)?)
+            }
+            Recipe::Vector { spec, .. } => {
+                let (volume, trace) = stbn_gen::generate_vector(spec)?;
+                Generated::Vector { volume, trace }
+            }
+        })
+    }
+
+    /// Generates the mask and encodes it as a complete `.stbn` blob.
+    ///
+    /// # Errors
+    /// As [`generate`](Self::generate).
+    pub fn make(
+        &self,
+        encoding: Encoding,
+        compression: Compression,
+    ) -> Result<(Generated, Vec<u8>), VectorSpecError> {
+        let generated = self.generate()?;
+        let blob = match &generated {
+            Generated::Scalar(volume) => encode_volume(volume, encoding, compression),
+            Generated::Vector { volume, .. } => {
+                encode_vector(volume, self.layout(), encoding, compression)
+            }
+        };
+        Ok((generated, blob))
+    }
+
+    /// `(width, height, depth)` of the mask.
+    pub fn size(&self) -> (u32, u32, u32) {
+        match self {
+            Recipe::VoidAndCluster(spec) | Recipe::Baseline(_, spec) => {
+                (spec.width, spec.height, spec.depth)
+            }
+            Recipe::Vector { spec, .. } => (spec.width, spec.height, spec.depth),
+        }
+    }
+
+    /// How the blob stores the mask: channels, space and value map its header must have.
+    pub fn layout(&self) -> Layout {
+        match self {
+            Recipe::Vector { layout, .. } => *layout,
+            _ => Layout::SCALAR,
+        }
+    }
+
+    /// One line per input, floats as exact bit patterns: the text the cache key hashes (without
+    /// the encoding, compression and versions, which the cache adds).
+    pub fn canonical_description(&self) -> String {
+        match self {
+            Recipe::VoidAndCluster(spec) => format!("method=void_and_cluster\n{}", scalar(spec)),
+            Recipe::Baseline(kind, spec) => {
+                format!("method=baseline\nbaseline={kind:?}\n{}", scalar(spec))
+            }
+            Recipe::Vector {
+                spec,
+                layout,
+                image_hash,
+            } => format!(
+                "method=swap\nspace={}\nwidth={}\nheight={}\ndepth={}\nseed={}\n\
+                 sigma_image={:016x}\nsigma_value={:016x}\nswaps_per_pixel={:016x}\n\
+                 kernel_tolerance={:016x}\nlayout={:?}/{:?}/{}\nimage={}\n",
+                spec.space.name(),
+                spec.width,
+                spec.height,
+                spec.depth,
+                spec.seed,
+                spec.sigma_image.to_bits(),
+                spec.sigma_value.to_bits(),
+                spec.swaps_per_pixel.to_bits(),
+                spec.kernel_tolerance.to_bits(),
+                layout.space,
+                layout.value_map,
+                layout.channels,
+                image_hash.map_or_else(|| "none".to_owned(), |h| h.to_hex().to_string()),
+            ),
+        }
+    }
+}
+
+/// The scalar spec's lines of a canonical description.
+fn scalar(spec: &MaskSpec) -> String {
+    let MaskSpec {
+        width,
+        height,
+        depth,
+        seed,
+        sigma_xy,
+        sigma_z,
+        initial_density,
+        topology,
+        kernel_tolerance,
+    } = spec;
+    format!(
+        "width={width}\nheight={height}\ndepth={depth}\nseed={seed}\n\
+         sigma_xy={:016x}\nsigma_z={:016x}\ninitial_density={:016x}\nkernel_tolerance={:016x}\n\
+         topology={}\n",
+        sigma_xy.to_bits(),
+        sigma_z.to_bits(),
+        initial_density.to_bits(),
+        kernel_tolerance.to_bits(),
+        topology.name(),
+    )
+}
