@@ -10,9 +10,11 @@ use crate::Result;
 use crate::report::{self, Row};
 
 /// Reads every folder of `<name>_<z>.png` slices in `dirs`, prints a summary line per mask and
-/// writes `<out>/report.md`. With `baseline_seed`, also measures the baselines of [`comparison`]
-/// (white noise, golden-ratio and random-shift animated 2D blue noise, from that seed) at each
-/// distinct size of the analysed masks, as extra rows named `<baseline>_<w>x<h>x<d>`.
+/// writes `<out>/report.md`. With `baseline_seed`, also generates and measures every baseline
+/// mask of [`comparison`] (white noise, independent 2D and isotropic 3D blue noise, golden-ratio
+/// and random-shift animated 2D blue noise, Tellusim's layered blue noise; the same masks a
+/// manifest can declare, from that seed) at each distinct size of the analysed masks, as extra
+/// rows named `<baseline>_<w>x<h>x<d>`.
 pub fn run(dirs: &[PathBuf], out: &Path, baseline_seed: Option<u64>) -> Result<()> {
     let mut rows = Vec::with_capacity(dirs.len());
     for dir in dirs {
@@ -40,15 +42,20 @@ pub fn run(dirs: &[PathBuf], out: &Path, baseline_seed: Option<u64>) -> Result<(
                 let field =
                     Field::new(w, h, d, &baseline.values).expect("baselines are valid fields");
                 let name = format!("{}_{w}x{h}x{d}", baseline.name);
-                let row = Row::measure(&name, baseline.kind, None, &field);
+                let row = Row::measure(&name, baseline.kind, Some(baseline.seconds), &field);
                 println!("{}", row.summary());
                 rows.push(row);
             }
         }
         intro.push_str(&format!(
-            " Baselines (seed {seed}) at the same sizes: white noise; one 2D blue-noise slice \
-             animated by the golden ratio, fract(v + frame·φ⁻¹); the same slice shifted by a \
-             random offset per frame, fract(v + r_frame)."
+            " Baselines (seed {seed}) at the same sizes, generated as masks with exactly uniform \
+             frames: `white_noise`, a random permutation per frame; `blue_2d`, independent 2D \
+             blue noise per frame; `blue_3d`, isotropic 3D blue noise; `golden_ratio_2d`, one 2D \
+             blue-noise frame animated by the golden ratio, fract(v + frame·φ⁻¹) on the rank \
+             grid; `random_shift_2d`, the same frame shifted by a random offset per frame, \
+             fract(v + r_frame); `tellusim_layered`, Tellusim's layered void-and-cluster (each \
+             frame seeded from the previous one flipped in x and y, kernel exp(−d²/σ²) + \
+             0.01/(1 + d²), σ = 1.6)."
         ));
     }
     let path = report::write(out, &intro, &rows)?;
@@ -82,8 +89,11 @@ mod tests {
         let out = dir.path().join("report");
         run(&folders, &out, Some(3)).unwrap();
         let text = fs::read_to_string(out.join("report.md")).unwrap();
+        // The first cell of every line of the first table (the DFT table repeats the names).
         let names: Vec<&str> = text
             .lines()
+            .skip_while(|l| !l.starts_with('|'))
+            .take_while(|l| l.starts_with('|'))
             .filter_map(|l| l.strip_prefix("| ")?.split(" |").next())
             .collect();
         assert_eq!(
@@ -93,8 +103,11 @@ mod tests {
                 "stbn",
                 "blue2d",
                 "white_noise_16x16x8",
+                "blue_2d_16x16x8",
+                "blue_3d_16x16x8",
                 "golden_ratio_2d_16x16x8",
-                "random_shift_2d_16x16x8"
+                "random_shift_2d_16x16x8",
+                "tellusim_layered_16x16x8"
             ],
             "{text}"
         );

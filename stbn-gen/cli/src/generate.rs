@@ -6,23 +6,24 @@ use std::time::Instant;
 
 use clap::ValueEnum;
 use indicatif::{ProgressBar, ProgressStyle};
-use stbn_build_support::Manifest;
-use stbn_build_support::encode::encode_payload;
+use stbn_build_support::{Generated, Manifest, MaskEntry, Method};
 use stbn_gen::analysis::Field;
 use stbn_gen::export::{PngDepth, write_slices_png};
-use stbn_runtime::Encoding;
+use stbn_runtime::{Encoding, PackedStbn};
 
 use crate::report::{self, Row};
-use crate::{Result, ktx2};
+use crate::{Result, ktx2, vector};
 
 /// How `generate` writes each mask.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum OutputFormat {
-    /// `<out>/<name>/<name>_<z>.png`: one grayscale PNG per frame, 8-bit for `Unorm8` masks,
-    /// 16-bit otherwise.
+    /// `<out>/<name>/<name>_<z>.png`: one PNG per frame, 8-bit for `Unorm8` masks, 16-bit
+    /// otherwise; grayscale for scalar masks, gray+alpha / RGB / RGBA for 2–4 channel vector
+    /// masks, with a `<name>.json` sidecar that says how to decode the channels.
     Png,
     /// `<out>/<name>.ktx2`: one KTX2 3D texture (depth = frames) whose texels are the mask's
-    /// `.stbn` payload bytes (R8_UNORM, R16_UNORM or R32_SFLOAT).
+    /// `.stbn` payload bytes (R8…R8G8B8A8_UNORM, R16…_UNORM or R32…_SFLOAT), plus the same
+    /// `<name>.json` sidecar for vector masks.
     Ktx2,
 }
 
@@ -32,6 +33,79 @@ pub fn run(manifest: &Path, out: &Path, format: OutputFormat) -> Result<()> {
     let manifest = Manifest::load(manifest)?;
     let mut rows = Vec::with_capacity(manifest.masks().len());
     for entry in manifest.masks() {
+        let start = Instant::now();
+        let (generated, blob) = make(entry)?;
+        let seconds = start.elapsed().as_secs_f64();
+        let mask_error = |e: &dyn std::fmt::Display| format!("mask {:?}: {e}", entry.name);
+        let decoded = PackedStbn::from_bytes(&blob)
+            .and_then(|packed| packed.decode())
+            .map_err(|e| mask_error(&e))?;
+        let mask = decoded.view();
+        let (w, h, d) = (mask.width(), mask.height(), mask.depth());
+        let kind = match entry.kind.method() {
+            Method::VoidAndCluster(topology) => topology.name().to_owned(),
+            _ => format!("{:?}", entry.kind),
+        };
+        // Scalar masks are measured on their generated values; vector masks on their first
+        // stored component (the report's figures are per scalar field).
+        let values = match &generated {
+            Generated::Scalar(volume) => volume.values(),
+            Generated::Vector { .. } => vector::channel_values(&mask, 0),
+        };
+        let field = Field::new(w as usize, h as usize, d as usize, &values)
+            .expect("a mask's values are a field");
+        match (format, &generated) {
+            (OutputFormat::Png, Generated::Scalar(_)) => {
+                let depth = if entry.encoding == Encoding::Unorm8 {
+                    PngDepth::Eight
+                } else {
+                    PngDepth::Sixteen
+                };
+                write_slices_png(&field, out, &entry.name, depth)?;
+            }
+            (OutputFormat::Png, Generated::Vector { trace, .. }) => {
+                let folder = out.join(&entry.name);
+                vector::write_png_slices(&mask, &folder, &entry.name)
+                    .map_err(|e| mask_error(&e))?;
+                vector::write_sidecar(&mask, entry, &folder).map_err(|e| mask_error(&e))?;
+                vector::write_trace(trace, &folder, &entry.name).map_err(|e| mask_error(&e))?;
+            }
+            (OutputFormat::Ktx2, _) => {
+                let file = ktx2::write(w, h, d, mask.channels(), entry.encoding, mask.data())
+                    .map_err(|e| mask_error(&e))?;
+                fs::create_dir_all(out).map_err(|e| format!("creating {}: {e}", out.display()))?;
+                let path = out.join(format!("{}.ktx2", entry.name));
+                fs::write(&path, file).map_err(|e| format!("writing {}: {e}", path.display()))?;
+                if let Generated::Vector { trace, .. } = &generated {
+                    vector::write_sidecar(&mask, entry, out).map_err(|e| mask_error(&e))?;
+                    vector::write_trace(trace, out, &entry.name).map_err(|e| mask_error(&e))?;
+                }
+            }
+        }
+        let row = Row::measure(&entry.name, &kind, Some(seconds), &field);
+        println!("{}", row.summary());
+        rows.push(row);
+    }
+    let written = match format {
+        OutputFormat::Png => "PNG slices `<name>/<name>_<frame>.png`",
+        OutputFormat::Ktx2 => "KTX2 3D textures `<name>.ktx2`",
+    };
+    let intro = format!(
+        "Masks of `{}`, written as {written} next to this report. Vector masks are measured on \
+         their first stored channel.",
+        manifest.path().display()
+    );
+    let path = report::write(out, &intro, &rows)?;
+    println!("report: {}", path.display());
+    Ok(())
+}
+
+/// Generates and encodes `entry`, with a progress bar for void-and-cluster masks (the others
+/// show a spinner).
+fn make(entry: &MaskEntry) -> Result<(Generated, Vec<u8>)> {
+    let recipe = entry.recipe();
+    let error = |e: &dyn std::fmt::Display| format!("mask {:?}: {e}", entry.name);
+    if let Method::VoidAndCluster(_) = entry.kind.method() {
         let spec = entry.spec();
         let bar = ProgressBar::new(spec.pixels())
             .with_style(
@@ -42,47 +116,22 @@ pub fn run(manifest: &Path, out: &Path, format: OutputFormat) -> Result<()> {
                 .progress_chars("=> "),
             )
             .with_prefix(entry.name.clone());
-        let start = Instant::now();
         let volume = stbn_gen::generate_with_progress(&spec, &mut |p| bar.set_position(p.ranked))
-            .map_err(|e| format!("mask {:?}: {e}", entry.name))?;
-        let seconds = start.elapsed().as_secs_f64();
+            .map_err(|e| error(&e))?;
         bar.finish_and_clear();
-
-        let values = volume.values();
-        let (w, h, d) = (volume.width(), volume.height(), volume.depth());
-        let field = Field::new(w as usize, h as usize, d as usize, &values)
-            .expect("a volume's values are a field");
-        match format {
-            OutputFormat::Png => {
-                let depth = if entry.encoding == Encoding::Unorm8 {
-                    PngDepth::Eight
-                } else {
-                    PngDepth::Sixteen
-                };
-                write_slices_png(&field, out, &entry.name, depth)?;
-            }
-            OutputFormat::Ktx2 => {
-                let payload = encode_payload(&volume, entry.encoding);
-                let file = ktx2::write(w, h, d, entry.encoding, &payload)
-                    .map_err(|e| format!("mask {:?}: {e}", entry.name))?;
-                fs::create_dir_all(out).map_err(|e| format!("creating {}: {e}", out.display()))?;
-                let path = out.join(format!("{}.ktx2", entry.name));
-                fs::write(&path, file).map_err(|e| format!("writing {}: {e}", path.display()))?;
-            }
-        }
-        let row = Row::measure(&entry.name, spec.topology.name(), Some(seconds), &field);
-        println!("{}", row.summary());
-        rows.push(row);
+        let blob =
+            stbn_build_support::encode::encode_volume(&volume, entry.encoding, entry.compression);
+        return Ok((Generated::Scalar(volume), blob));
     }
-    let written = match format {
-        OutputFormat::Png => "PNG slices `<name>/<name>_<frame>.png`",
-        OutputFormat::Ktx2 => "KTX2 3D textures `<name>.ktx2`",
-    };
-    let intro = format!(
-        "Masks of `{}`, written as {written} next to this report.",
-        manifest.path().display()
+    let spinner = ProgressBar::new_spinner().with_prefix(entry.name.clone());
+    spinner.set_style(
+        ProgressStyle::with_template("{prefix} {spinner} {elapsed_precise}")
+            .expect("the template is valid"),
     );
-    let path = report::write(out, &intro, &rows)?;
-    println!("report: {}", path.display());
-    Ok(())
+    spinner.enable_steady_tick(std::time::Duration::from_millis(100));
+    let made = recipe
+        .make(entry.encoding, entry.compression)
+        .map_err(|e| error(&e))?;
+    spinner.finish_and_clear();
+    Ok(made)
 }

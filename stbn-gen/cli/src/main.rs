@@ -5,6 +5,7 @@ mod analyze;
 mod generate;
 mod ktx2;
 mod report;
+mod vector;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -29,8 +30,10 @@ enum Command {
     /// Generate every mask of a manifest: PNG slices in `<OUT>/<name>/` (or `<OUT>/<name>.ktx2`
     /// with `--format ktx2`) and `<OUT>/report.md`.
     ///
-    /// Slices are 8-bit for `Unorm8` masks and 16-bit otherwise. KTX2 files are 3D textures
-    /// (depth = frames) in the mask's own encoding: R8_UNORM, R16_UNORM or R32_SFLOAT.
+    /// Slices are 8-bit for `Unorm8` masks and 16-bit otherwise; vector masks get gray+alpha,
+    /// RGB or RGBA slices, a `<name>.json` sidecar describing the channels and a
+    /// `<name>_trace.csv` of the optimiser's energy. KTX2 files are 3D textures (depth = frames)
+    /// in the mask's own encoding and channel count (R8_UNORM … R32G32B32A32_SFLOAT).
     Generate {
         /// The `assets.ron` manifest.
         manifest: PathBuf,

@@ -1,16 +1,20 @@
 //! The quality figures of one mask ([`Row`]) and the `report.md` of several: a table, the
-//! convergence figures of every integrand, and PNG plots in `plots/`.
+//! convergence figures of every integrand, PNG plots in `plots/`, DFT magnitude images in `dft/`
+//! and every number as CSV in `csv/`.
 
+mod csv;
 mod plots;
+mod spectrum_images;
 
 use std::fmt::Write as _;
 use std::fs;
 use std::path::{Path, PathBuf};
 
 use stbn_gen::analysis::{
-    Convergence, ConvergenceOptions, Field, FilteredErrorOptions, Integrand, convergence,
-    filtered_error, radial_spectrum, slice_histogram_deviation, spatial_low_band,
-    temporal_low_band, temporal_spectrum,
+    Convergence, ConvergenceOptions, Field, FilteredErrorOptions, Integrand, SpectrumImage,
+    convergence, dft_xy_image, dft_xz_image, filtered_error, pixel_histogram_deviation,
+    radial_spectrum, slice_histogram_deviation, spatial_low_band, temporal_low_band,
+    temporal_spectrum,
 };
 
 use crate::Result;
@@ -44,6 +48,14 @@ pub struct Row {
     pub temporal: Option<f64>,
     /// [`slice_histogram_deviation`] over [`HISTOGRAM_BINS`] bins: 0 = exactly uniform frames.
     pub histogram: f64,
+    /// [`pixel_histogram_deviation`]: mean Kolmogorov–Smirnov distance of each pixel's values
+    /// over the frames from uniform; `1/(2·frames)` at best, about `0.87/√frames` for white
+    /// noise.
+    pub pixel_histogram: f64,
+    /// [`dft_xy_image`]: mean DFT magnitude of the frames, centred (`width × height`).
+    pub dft_xy: SpectrumImage,
+    /// [`dft_xz_image`]: mean DFT magnitude of the x–frame planes, centred (`width × frames`).
+    pub dft_xz: SpectrumImage,
     /// [`radial_spectrum`]: normalised power per ring of radius `r` (cycles per longest side).
     pub radial: Vec<f64>,
     /// [`temporal_spectrum`]: normalised power per temporal frequency (cycles per `frames`).
@@ -69,6 +81,9 @@ impl Row {
             spatial: spatial_low_band(field),
             temporal: temporal_low_band(field),
             histogram: slice_histogram_deviation(field, HISTOGRAM_BINS),
+            pixel_histogram: pixel_histogram_deviation(field),
+            dft_xy: dft_xy_image(field),
+            dft_xz: dft_xz_image(field),
             radial: radial_spectrum(field),
             temporal_spectrum: temporal_spectrum(field),
             filtered: filtered_error(field, FilteredErrorOptions::default()),
@@ -132,19 +147,46 @@ fn integrand_index(integrand: Integrand) -> usize {
         .expect("ALL holds every integrand")
 }
 
-/// Writes `<out>/report.md` (creating `out`) with `intro` above the figures of `rows`, and the
-/// plots it links to in `<out>/plots/`; returns the report's path.
+/// Writes `<out>/report.md` (creating `out`) with `intro` above the figures of `rows`, and what
+/// it links to: plots in `<out>/plots/`, DFT images in `<out>/dft/` and CSV files in
+/// `<out>/csv/`; returns the report's path.
 pub fn write(out: &Path, intro: &str, rows: &[Row]) -> Result<PathBuf> {
     let plot_dir = out.join(PLOT_DIR);
-    fs::create_dir_all(&plot_dir)
-        .map_err(|e| format!("cannot create {}: {e}", plot_dir.display()))?;
+    let dft_dir = out.join(spectrum_images::DFT_DIR);
+    for dir in [&plot_dir, &dft_dir] {
+        fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+    }
     for Figure { file, plot, .. } in figures(rows) {
         plots::write(&plot, &plot_dir.join(file))?;
     }
+    for (i, row) in rows.iter().enumerate() {
+        let [xy, xz] = dft_files(i, row);
+        spectrum_images::write(&row.dft_xy, &dft_dir.join(xy))?;
+        spectrum_images::write(&row.dft_xz, &dft_dir.join(xz))?;
+    }
+    csv::write(out, rows)?;
     let path = out.join("report.md");
     fs::write(&path, markdown(intro, rows))
         .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
     Ok(path)
+}
+
+/// The XY and XZ image files of `rows[index]` in [`spectrum_images::DFT_DIR`]:
+/// `<index>_<name>_xy.png` and `…_xz.png`, the name reduced to ASCII letters, digits, `-` and `_`
+/// (the index keeps them unique).
+fn dft_files(index: usize, row: &Row) -> [String; 2] {
+    let name: String = row
+        .name
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    ["xy", "xz"].map(|plane| format!("{index:02}_{name}_{plane}.png"))
 }
 
 /// The folder of the plots, relative to report.md.
@@ -319,22 +361,24 @@ fn markdown(intro: &str, rows: &[Row]) -> String {
     let at = CONVERGENCE_AT.map(|n| n.to_string()).join("/");
     let mut text = format!(
         "# Blue-noise mask report\n\n{intro}\n\n\
-         | mask | size | kind | seconds | spatial low band | temporal low band | histogram deviation \
-         | filtered error | step MC RMSE at {at} | step EMA RMSE at {at} |\n\
-         |---|---|---|---:|---:|---:|---:|---:|---:|---:|\n"
+         | mask | size | kind | seconds | spatial low band | temporal low band \
+         | frame histogram deviation | pixel histogram deviation | filtered error \
+         | step MC RMSE at {at} | step EMA RMSE at {at} |\n\
+         |---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n"
     );
     for row in rows {
         let seconds = row.seconds.map_or("n/a".to_owned(), |s| format!("{s:.2}"));
         let step = row.curves(Integrand::Step);
         writeln!(
             text,
-            "| {} | {} | {} | {seconds} | {} | {} | {:.4} | {:.5} | {} | {} |",
+            "| {} | {} | {} | {seconds} | {} | {} | {:.4} | {:.4} | {:.5} | {} | {} |",
             row.name.replace('|', "\\|"),
             size(row.size),
             row.kind,
             band(row.spatial),
             band(row.temporal),
             row.histogram,
+            row.pixel_histogram,
             row.filtered_last(),
             at_samples(&step.monte_carlo),
             at_samples(&step.ema),
@@ -357,10 +401,16 @@ blue noise is far below 1. n/a for 1×1 frames.\n\
 frequencies 1 ≤ f ≤ frames/8 cycles per sequence (just f = 1 below 8 frames), averaged over \
 pixels. **White noise = 1**; a mask that is blue over time is far below 1, one that is white \
 over time (`independent2d`) about 1. n/a for a single frame.\n\
-- **histogram deviation**: the largest relative deviation of any frame's {HISTOGRAM_BINS}-bin \
-histogram of values from uniform, |count − expected| / expected. 0 = every frame exactly \
-uniform (void-and-cluster ranks always are); white noise measures about 0.2 over 32 frames \
- of 64×64.\n\
+- **frame histogram deviation**: the largest relative deviation of any frame's \
+{HISTOGRAM_BINS}-bin histogram of values from uniform, |count − expected| / expected. 0 = every \
+frame exactly uniform (void-and-cluster ranks always are, and so is every baseline here, white \
+noise included: they are built on ranks); independent uniform values measure about 0.2 over 32 \
+frames of 64×64.\n\
+- **pixel histogram deviation**: how far each pixel's values over the frames are from uniform: \
+the Kolmogorov–Smirnov distance (largest gap between the empirical and the uniform CDF) of each \
+pixel's sequence, averaged over pixels. 1/(2·frames) at best (values at the midpoints of equal \
+strata), about 0.87/√frames for white noise (0.11 at 64 frames); lower means each pixel's \
+sequence covers [0, 1) more evenly over time.\n\
 - **filtered error**: EA's FAST metric at the last frame. For 256 stratified thresholds t, each \
 frame is binarised (value < t), blurred with a toroidal Gaussian of σ = 1.3435 px, averaged over \
 frames with an EMA (α = 0.1); the figure is √(mean over t of the spatial variance), in units of \
@@ -375,7 +425,58 @@ analysed files on the decoded samples, (sample + ½) / 2^bits.\n"
     ));
     convergence_section(&mut text, rows);
     plot_section(&mut text, rows);
+    dft_section(&mut text, rows);
+    csv_section(&mut text, rows);
     text
+}
+
+/// The DFT magnitude images of every mask, as a table of XY and XZ images.
+fn dft_section(text: &mut String, rows: &[Row]) {
+    text.push_str(&format!(
+        "\n## DFT magnitude images\n\n\
+         Like the paper's Fig. 5. **XY**: the 2D DFT magnitude of every frame (mean removed, \
+         normalised by the frame's variance so white noise has mean power 1), averaged over \
+         frames; horizontal = x frequency, vertical = y frequency. **XZ**: the 2D DFT magnitude \
+         of each x–frame plane (one per row y), averaged over rows; horizontal = x frequency, \
+         vertical = temporal frequency. DC (0 by construction) is at the centre, Nyquist at the \
+         edges. Grey level = magnitude on one linear scale for every mask: black 0, white \
+         {full} and above; white noise is a flat grey of level ≈ 113 (mean magnitude √π/2 ≈ \
+         0.89). Blue noise in space is black around the centre of XY; a mask blue over time is \
+         black along the horizontal line through the centre of XZ. Images are enlarged by \
+         whole pixels to at least {side} pixels. Each line: the mask, its XY image (x → , \
+         y ↓), its XZ image (x → , time ↓).\n\n",
+        full = SpectrumImage::GRAY_FULL_SCALE,
+        side = spectrum_images::MIN_SIDE,
+    ));
+    for (i, row) in rows.iter().enumerate() {
+        let [xy, xz] = dft_files(i, row);
+        let dir = spectrum_images::DFT_DIR;
+        writeln!(
+            text,
+            "- `{}`: ![XY]({dir}/{xy}) ![XZ]({dir}/{xz})",
+            row.name.replace('`', "'")
+        )
+        .expect("String");
+    }
+}
+
+/// The list of CSV files, linked.
+fn csv_section(text: &mut String, rows: &[Row]) {
+    text.push_str(
+        "\n## Numbers as CSV\n\n\
+         Every figure and curve above, one header row each, one row per mask and point:\n\n",
+    );
+    for table in csv::tables(rows) {
+        writeln!(
+            text,
+            "- [`{file}`]({dir}/{file}): {about}; columns {columns}.",
+            file = table.file,
+            dir = csv::CSV_DIR,
+            about = table.about,
+            columns = table.header.join(", "),
+        )
+        .expect("String");
+    }
 }
 
 /// The convergence figures of every integrand, as an aligned text block.
@@ -492,6 +593,7 @@ mod tests {
             spatial: Some(0.00123456),
             temporal,
             histogram: 0.0,
+            pixel_histogram: 0.25,
             filtered: vec![0.5, 0.012345],
             ..Row::measure(name, "png 8-bit", seconds, &field)
         }
@@ -509,7 +611,7 @@ mod tests {
         assert!(text.starts_with("# Blue-noise mask report\n\nIntro.\n\n| mask |"));
         assert!(
             text.contains(
-                "| a\\|b | 64×32×1 | png 8-bit | n/a | 0.0012 | n/a | 0.0000 | 0.01235 |"
+                "| a\\|b | 64×32×1 | png 8-bit | n/a | 0.0012 | n/a | 0.0000 | 0.2500 | 0.01235 |"
             ),
             "{text}"
         );
@@ -521,6 +623,9 @@ mod tests {
         assert!(text.contains("| 0.5000 / "), "{text}");
         assert!(text.contains("![Filtered error per frame](plots/filtered_error.png)"));
         assert!(text.contains("blue = a|b, orange = scalar."));
+        // DFT images per mask, file names reduced to safe characters, and the CSV list.
+        assert!(text.contains("- `a|b`: ![XY](dft/00_a_b_xy.png) ![XZ](dft/00_a_b_xz.png)\n"));
+        assert!(text.contains("- [`convergence.csv`](csv/convergence.csv): "));
         // Every integrand and estimator has a line per mask; 4 frames wrap up to 64 samples.
         let lines = text.lines().filter(|l| l.starts_with("scalar ")).count();
         assert_eq!(lines, 12, "{text}");
@@ -555,19 +660,45 @@ mod tests {
     }
 
     #[test]
-    fn write_creates_the_report_and_every_linked_plot() {
+    fn write_creates_the_report_and_every_linked_file() {
         let dir = tempfile::tempdir().unwrap();
         let rows = [row("a", None, None), row("b", Some(1.0), Some(0.3))];
         let path = write(dir.path(), "Intro.", &rows).unwrap();
         let text = fs::read_to_string(path).unwrap();
+        // Every `](target)` of the report: plots, DFT images and CSV files.
         let links: Vec<&str> = text
-            .lines()
-            .filter_map(|l| l.strip_prefix("![")?.split("](").nth(1)?.strip_suffix(')'))
+            .split("](")
+            .skip(1)
+            .map(|rest| &rest[..rest.find(')').unwrap()])
             .collect();
-        assert_eq!(links.len(), 3 + 2 * Integrand::ALL.len());
+        let count = |ext: &str| links.iter().filter(|l| l.ends_with(ext)).count();
+        assert_eq!(count(".png"), 3 + 2 * Integrand::ALL.len() + 2 * rows.len());
+        assert_eq!(count(".csv"), 5);
         for link in links {
             let bytes = fs::read(dir.path().join(link)).unwrap();
-            assert!(bytes.starts_with(b"\x89PNG"), "{link}");
+            if link.ends_with(".png") {
+                assert!(bytes.starts_with(b"\x89PNG"), "{link}");
+            } else {
+                assert!(bytes.starts_with(b"mask,"), "{link}");
+            }
         }
+        // The CSV files hold every point: 2 frames of filtered error per mask, 64 samples of
+        // each integrand, estimator and start per mask.
+        let lines = |file: &str| {
+            let text = fs::read_to_string(dir.path().join("csv").join(file)).unwrap();
+            text.lines().count()
+        };
+        assert_eq!(lines("summary.csv"), 1 + rows.len());
+        assert_eq!(lines("filtered_error.csv"), 1 + 2 * rows.len());
+        assert_eq!(
+            lines("convergence.csv"),
+            1 + rows.len() * Integrand::ALL.len() * 2 * 2 * CONVERGENCE_SAMPLES
+        );
+        let summary = fs::read_to_string(dir.path().join("csv/summary.csv")).unwrap();
+        let a = summary.lines().nth(1).unwrap();
+        assert!(
+            a.starts_with("a,png 8-bit,64,32,1,,0.00123456,,0,0.25,0.012345,0.5,"),
+            "{a}"
+        );
     }
 }

@@ -1,0 +1,79 @@
+//! The DFT magnitude images of the report ([`stbn_gen::analysis::dft`]) as 8-bit grayscale PNGs,
+//! enlarged by an integer factor (nearest neighbour) so small masks stay visible.
+
+use std::fs::File;
+use std::io::BufWriter;
+use std::path::Path;
+
+use stbn_gen::analysis::SpectrumImage;
+
+use crate::Result;
+
+/// The folder of the images, relative to report.md.
+pub const DFT_DIR: &str = "dft";
+
+/// Images are enlarged until their longer side reaches at least this many pixels.
+pub const MIN_SIDE: usize = 256;
+
+/// The integer enlargement of a `width × height` image: `⌈MIN_SIDE / longer side⌉`, at least 1.
+pub fn enlargement(width: usize, height: usize) -> usize {
+    MIN_SIDE.div_ceil(width.max(height).max(1)).max(1)
+}
+
+/// Writes `image` ([`SpectrumImage::to_gray8`], enlarged by [`enlargement`]) to `path` as an
+/// 8-bit grayscale PNG.
+pub fn write(image: &SpectrumImage, path: &Path) -> Result<()> {
+    let factor = enlargement(image.width, image.height);
+    let (w, h) = (image.width * factor, image.height * factor);
+    let gray = image.to_gray8();
+    let mut pixels = Vec::with_capacity(w * h);
+    for row in gray.chunks_exact(image.width) {
+        let wide: Vec<u8> = row
+            .iter()
+            .flat_map(|&g| std::iter::repeat_n(g, factor))
+            .collect();
+        for _ in 0..factor {
+            pixels.extend_from_slice(&wide);
+        }
+    }
+    let failed = |e: &dyn std::fmt::Display| format!("cannot write {}: {e}", path.display());
+    let size = |n: usize| u32::try_from(n).map_err(|e| failed(&e));
+    let file = File::create(path).map_err(|e| failed(&e))?;
+    let mut encoder = png::Encoder::new(BufWriter::new(file), size(w)?, size(h)?);
+    encoder.set_color(png::ColorType::Grayscale);
+    encoder.set_depth(png::BitDepth::Eight);
+    let mut writer = encoder.write_header().map_err(|e| failed(&e))?;
+    writer.write_image_data(&pixels).map_err(|e| failed(&e))?;
+    writer.finish().map_err(|e| failed(&e))?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn images_are_enlarged_and_written_as_gray() {
+        assert_eq!(enlargement(128, 64), 2);
+        assert_eq!(enlargement(64, 32), 4);
+        assert_eq!(enlargement(300, 7), 1);
+        let image = SpectrumImage {
+            width: 2,
+            height: 1,
+            values: vec![0.0, 2.0],
+        };
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("x.png");
+        write(&image, &path).unwrap();
+        let decoder = png::Decoder::new(std::io::BufReader::new(File::open(&path).unwrap()));
+        let mut reader = decoder.read_info().unwrap();
+        let mut pixels = vec![0; reader.output_buffer_size().unwrap()];
+        let info = reader.next_frame(&mut pixels).unwrap();
+        assert_eq!((info.width, info.height), (256, 128));
+        assert_eq!(info.color_type, png::ColorType::Grayscale);
+        // Left half black, right half white, on every row.
+        assert_eq!(pixels[0], 0);
+        assert_eq!(pixels[255], 255);
+        assert_eq!(pixels[127 * 256 + 128], 255);
+    }
+}
