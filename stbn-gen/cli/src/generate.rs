@@ -18,8 +18,9 @@ use crate::{Result, ktx2, vector};
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum OutputFormat {
     /// `<out>/<name>/<name>_<z>.png`: one PNG per frame, 8-bit for `Unorm8` masks, 16-bit
-    /// otherwise; grayscale for scalar masks, gray+alpha / RGB / RGBA for 2–4 channel vector
-    /// masks, with a `<name>.json` sidecar that says how to decode the channels.
+    /// otherwise; grayscale for scalar masks, RGBA for vector masks (values in R, G, B, the pdf
+    /// or full scale in A), with a `<name>.json` sidecar that says how to decode the channels and
+    /// holds the optimiser's energy trace.
     Png,
     /// `<out>/<name>.ktx2`: one KTX2 3D texture (depth = frames) whose texels are the mask's
     /// `.stbn` payload bytes (R8…R8G8B8A8_UNORM, R16…_UNORM or R32…_SFLOAT), plus the same
@@ -67,7 +68,7 @@ pub fn run(manifest: &Path, out: &Path, format: OutputFormat) -> Result<()> {
                 let folder = out.join(&entry.name);
                 vector::write_png_slices(&mask, &folder, &entry.name)
                     .map_err(|e| mask_error(&e))?;
-                vector::write_sidecar(&mask, entry, &folder).map_err(|e| mask_error(&e))?;
+                vector::write_sidecar(&mask, entry, trace, &folder).map_err(|e| mask_error(&e))?;
                 vector::write_trace(trace, &folder, &entry.name).map_err(|e| mask_error(&e))?;
             }
             (OutputFormat::Ktx2, _) => {
@@ -77,7 +78,7 @@ pub fn run(manifest: &Path, out: &Path, format: OutputFormat) -> Result<()> {
                 let path = out.join(format!("{}.ktx2", entry.name));
                 fs::write(&path, file).map_err(|e| format!("writing {}: {e}", path.display()))?;
                 if let Generated::Vector { trace, .. } = &generated {
-                    vector::write_sidecar(&mask, entry, out).map_err(|e| mask_error(&e))?;
+                    vector::write_sidecar(&mask, entry, trace, out).map_err(|e| mask_error(&e))?;
                     vector::write_trace(trace, out, &entry.name).map_err(|e| mask_error(&e))?;
                 }
             }

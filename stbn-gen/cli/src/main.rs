@@ -30,9 +30,9 @@ enum Command {
     /// Generate every mask of a manifest: PNG slices in `<OUT>/<name>/` (or `<OUT>/<name>.ktx2`
     /// with `--format ktx2`) and `<OUT>/report.md`.
     ///
-    /// Slices are 8-bit for `Unorm8` masks and 16-bit otherwise; vector masks get gray+alpha,
-    /// RGB or RGBA slices, a `<name>.json` sidecar describing the channels and a
-    /// `<name>_trace.csv` of the optimiser's energy. KTX2 files are 3D textures (depth = frames)
+    /// Slices are 8-bit for `Unorm8` masks and 16-bit otherwise; vector masks get RGBA slices
+    /// (values in R, G, B; the pdf, or full scale, in A), a `<name>.json` sidecar describing the
+    /// channels with the optimiser's energy trace, and the trace as `<name>_trace.csv`. KTX2 files are 3D textures (depth = frames)
     /// in the mask's own encoding and channel count (R8_UNORM … R32G32B32A32_SFLOAT).
     Generate {
         /// The `assets.ron` manifest.

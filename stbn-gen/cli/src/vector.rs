@@ -24,11 +24,14 @@ pub fn channel_values(mask: &Stbn<'_>, c: u32) -> Vec<f64> {
     out
 }
 
-/// Writes frame `z` of `mask` as `<folder>/<name>_<z>.png` for every frame: gray, gray+alpha,
-/// RGB or RGBA for 1–4 channels, holding the stored channels in order. Unorm8 masks give 8-bit
-/// PNGs with the stored bytes; Unorm16 16-bit PNGs with the stored codes; F32 masks 16-bit PNGs
-/// of `floor(v · 65536)` clamped to the range. Slices `<name>_<z>.png` with `z ≥ depth` left by
-/// an earlier, deeper mask are removed.
+/// Writes frame `z` of `mask` as `<folder>/<name>_<z>.png` for every frame, as the reference SDK
+/// lays vector masks out: RGBA, with the stored value channels in R, G, B (unused ones 0) and the
+/// stored pdf in A, or A at full scale where no pdf is stored (a four-component `Vec4` keeps its
+/// fourth component in A). Channels hold the stored codes: `v · 0.5 + 0.5` for signed components
+/// and the octahedral pair, `v` for unit-range ones, the pdf normalised to its min/max. Unorm8
+/// masks give 8-bit PNGs with the stored bytes; Unorm16 16-bit PNGs with the stored codes; F32
+/// masks 16-bit PNGs of `floor(u · 65536)` clamped to the range. Slices `<name>_<z>.png` with
+/// `z ≥ depth` left by an earlier, deeper mask are removed.
 pub fn write_png_slices(mask: &Stbn<'_>, folder: &Path, name: &str) -> io::Result<()> {
     fs::create_dir_all(folder)?;
     let depth = mask.depth();
@@ -49,44 +52,67 @@ pub fn write_png_slices(mask: &Stbn<'_>, folder: &Path, name: &str) -> io::Resul
         }
     }
     let channels = usize::from(mask.channels());
-    let color = [
-        png::ColorType::Grayscale,
-        png::ColorType::GrayscaleAlpha,
-        png::ColorType::Rgb,
-        png::ColorType::Rgba,
-    ][channels - 1];
-    let frame_elements = mask.width() as usize * mask.height() as usize * channels;
+    // Where each RGBA channel comes from: a stored channel, or a constant (0 or full scale).
+    let pdf = mask.space().stores_pdf().then_some(channels - 1);
+    let values = channels - usize::from(pdf.is_some());
+    let source: [Option<usize>; 4] = [
+        (values > 0).then_some(0),
+        (values > 1).then_some(1),
+        (values > 2).then_some(2),
+        if values > 3 { Some(3) } else { pdf },
+    ];
+    let alpha_full = source[3].is_none();
     let bpe = mask.encoding().bytes_per_element();
+    let frame_elements = mask.width() as usize * mask.height() as usize * channels;
+    let sixteen = mask.encoding() != Encoding::Unorm8;
     for z in 0..depth {
         let start = z as usize * frame_elements * bpe;
         let frame = &mask.data()[start..start + frame_elements * bpe];
-        let (bit_depth, data): (png::BitDepth, Vec<u8>) = match mask.encoding() {
-            Encoding::Unorm8 => (png::BitDepth::Eight, frame.to_vec()),
-            Encoding::Unorm16 => (
-                png::BitDepth::Sixteen,
-                // PNG samples are big-endian.
-                frame.chunks_exact(2).flat_map(|q| [q[1], q[0]]).collect(),
-            ),
-            Encoding::F32 => (
-                png::BitDepth::Sixteen,
-                frame
-                    .chunks_exact(4)
-                    .flat_map(|v| {
-                        let v = f32::from_le_bytes([v[0], v[1], v[2], v[3]]);
-                        let q = (f64::from(v) * 65536.0).floor().clamp(0.0, 65535.0) as u16;
-                        q.to_be_bytes()
-                    })
-                    .collect(),
-            ),
+        // The stored element `i` of this frame as a PNG sample (u8 or u16 code).
+        let code = |i: usize| -> u16 {
+            let e = &frame[i * bpe..(i + 1) * bpe];
+            match mask.encoding() {
+                Encoding::Unorm8 => u16::from(e[0]),
+                Encoding::Unorm16 => u16::from_le_bytes([e[0], e[1]]),
+                Encoding::F32 => {
+                    let v = f32::from_le_bytes([e[0], e[1], e[2], e[3]]);
+                    (f64::from(v) * 65536.0).floor().clamp(0.0, 65535.0) as u16
+                }
+            }
         };
+        let full = if sixteen {
+            u16::MAX
+        } else {
+            u16::from(u8::MAX)
+        };
+        let mut data =
+            Vec::with_capacity(frame_elements / channels * 4 * if sixteen { 2 } else { 1 });
+        for texel in 0..frame_elements / channels {
+            for (slot, from) in source.iter().enumerate() {
+                let q = match from {
+                    Some(c) => code(texel * channels + c),
+                    None if slot == 3 && alpha_full => full,
+                    None => 0,
+                };
+                if sixteen {
+                    data.extend_from_slice(&q.to_be_bytes()); // PNG samples are big-endian
+                } else {
+                    data.push(q as u8);
+                }
+            }
+        }
         let path = folder.join(format!("{name}_{z}.png"));
         let mut encoder = png::Encoder::new(
             BufWriter::new(File::create(&path)?),
             mask.width(),
             mask.height(),
         );
-        encoder.set_color(color);
-        encoder.set_depth(bit_depth);
+        encoder.set_color(png::ColorType::Rgba);
+        encoder.set_depth(if sixteen {
+            png::BitDepth::Sixteen
+        } else {
+            png::BitDepth::Eight
+        });
         let mut writer = encoder.write_header().map_err(io::Error::other)?;
         writer.write_image_data(&data).map_err(io::Error::other)?;
         writer.finish().map_err(io::Error::other)?;
@@ -115,11 +141,29 @@ struct Sidecar<'a> {
     sigma_value: f64,
     swaps_per_pixel: f64,
     image: Option<String>,
+    /// Where the PNG slices keep each channel.
+    png_layout: String,
     decode: String,
+    /// The optimiser's energy after each pass (also in `<name>_trace.csv`).
+    trace: Vec<TraceRow>,
 }
 
-/// Writes `<folder>/<name>.json` describing `mask` (the encoded `entry`).
-pub fn write_sidecar(mask: &Stbn<'_>, entry: &MaskEntry, folder: &Path) -> io::Result<()> {
+/// One pass of [`EnergyTrace`] in the sidecar.
+#[derive(Serialize)]
+struct TraceRow {
+    swaps_attempted: u64,
+    swaps_accepted: u64,
+    energy: f64,
+}
+
+/// Writes `<folder>/<name>.json` describing `mask` (the encoded `entry`) and the energy `trace`
+/// of its optimisation.
+pub fn write_sidecar(
+    mask: &Stbn<'_>,
+    entry: &MaskEntry,
+    trace: &EnergyTrace,
+    folder: &Path,
+) -> io::Result<()> {
     let header = mask.header();
     let stored = match header.encoding {
         Encoding::Unorm8 => "stored unit value u = (q + 0.5) / 256 for byte q",
@@ -170,11 +214,43 @@ pub fn write_sidecar(mask: &Stbn<'_>, entry: &MaskEntry, folder: &Path) -> io::R
         sigma_value: entry.sigma_value,
         swaps_per_pixel: entry.swaps_per_pixel,
         image: entry.image.as_ref().map(|i| i.path.display().to_string()),
+        png_layout: png_layout(header.channels, header.space.stores_pdf()),
         decode: format!("{stored}; {values}{unit}{pdf}"),
+        trace: trace
+            .points
+            .iter()
+            .map(|p| TraceRow {
+                swaps_attempted: p.swaps_attempted,
+                swaps_accepted: p.swaps_accepted,
+                energy: p.energy,
+            })
+            .collect(),
     };
     fs::create_dir_all(folder)?;
     let json = serde_json::to_string_pretty(&sidecar).map_err(io::Error::other)?;
     fs::write(folder.join(format!("{}.json", entry.name)), json + "\n")
+}
+
+/// Which stored channel each RGBA channel of a PNG slice holds ([`write_png_slices`]).
+fn png_layout(channels: u8, stores_pdf: bool) -> String {
+    let values = channels - u8::from(stores_pdf);
+    let rgb: Vec<String> = (0..3)
+        .map(|c| {
+            if c < values {
+                format!("channel {c}")
+            } else {
+                "0".to_owned()
+            }
+        })
+        .collect();
+    let alpha = if values > 3 {
+        "channel 3".to_owned()
+    } else if stores_pdf {
+        format!("channel {} (pdf)", channels - 1)
+    } else {
+        "full scale".to_owned()
+    };
+    format!("R: {}, G: {}, B: {}, A: {alpha}", rgb[0], rgb[1], rgb[2])
 }
 
 /// Writes `<folder>/<name>_trace.csv`: `swaps_attempted,swaps_accepted,energy` per pass.

@@ -130,3 +130,85 @@ fn analyze_fails_naming_the_folder() {
     assert_fails_naming(&output, "no_such_mask");
     assert!(!dir.path().join("report.md").exists());
 }
+
+/// Reads one PNG slice: (color type, bit depth, samples widened to u16).
+fn read_png(path: &Path) -> (png::ColorType, png::BitDepth, Vec<u16>) {
+    let decoder = png::Decoder::new(std::io::BufReader::new(fs::File::open(path).unwrap()));
+    let mut reader = decoder.read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    let bytes = &buf[..info.buffer_size()];
+    let samples = match info.bit_depth {
+        png::BitDepth::Sixteen => bytes
+            .chunks_exact(2)
+            .map(|b| u16::from_be_bytes([b[0], b[1]]))
+            .collect(),
+        _ => bytes.iter().map(|&b| u16::from(b)).collect(),
+    };
+    (info.color_type, info.bit_depth, samples)
+}
+
+#[test]
+fn vector_masks_are_rgba_slices_with_the_pdf_in_alpha_and_a_sidecar_with_the_trace() {
+    let dir = tempfile::tempdir().unwrap();
+    // A 4×2 gray image: one bright pixel, the rest dim, so the pdf varies.
+    let image = dir.path().join("kernel.png");
+    let mut encoder = png::Encoder::new(fs::File::create(&image).unwrap(), 4, 2);
+    encoder.set_color(png::ColorType::Grayscale);
+    encoder.set_depth(png::BitDepth::Eight);
+    let mut writer = encoder.write_header().unwrap();
+    writer
+        .write_image_data(&[255, 20, 20, 20, 20, 20, 20, 20])
+        .unwrap();
+    writer.finish().unwrap();
+    let manifest = dir.path().join("assets.ron");
+    fs::write(
+        &manifest,
+        r#"(masks: [
+            (name: "points", kind: ImagePoints, size: (8, 8, 4), seed: 1, encoding: Unorm8,
+             image: "kernel.png"),
+            (name: "dirs", kind: UnitVec3, size: (8, 8, 4), seed: 2, encoding: Unorm16,
+             octahedral: false),
+        ])"#,
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    let output = stbn_gen(&["generate".as_ref(), &manifest, "--out".as_ref(), &out]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+
+    // ImagePoints: x, y in R, G; B unused; the normalised pdf in A, spanning its full range.
+    let (color, depth, px) = read_png(&out.join("points/points_0.png"));
+    assert_eq!((color, depth), (png::ColorType::Rgba, png::BitDepth::Eight));
+    assert_eq!(px.len(), 8 * 8 * 4);
+    assert!(px.chunks_exact(4).all(|p| p[2] == 0), "B is unused");
+    let alphas: Vec<u16> = px.chunks_exact(4).map(|p| p[3]).collect();
+    assert!(alphas.iter().any(|&a| a < 255), "{alphas:?}");
+    // UnitVec3 without octahedral: x, y, z as v·0.5+0.5 in R, G, B; A full scale.
+    let (color, depth, px) = read_png(&out.join("dirs/dirs_3.png"));
+    assert_eq!(
+        (color, depth),
+        (png::ColorType::Rgba, png::BitDepth::Sixteen)
+    );
+    for p in px.chunks_exact(4) {
+        assert_eq!(p[3], u16::MAX);
+        let v: Vec<f64> = p[..3]
+            .iter()
+            .map(|&q| (f64::from(q) + 0.5) / 65536.0 * 2.0 - 1.0)
+            .collect();
+        let norm = v.iter().map(|c| c * c).sum::<f64>().sqrt();
+        assert!((norm - 1.0).abs() < 1e-3, "{v:?}");
+    }
+
+    let sidecar: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(out.join("points/points.json")).unwrap()).unwrap();
+    assert_eq!(sidecar["pdf_channel"], 2);
+    assert_eq!(
+        sidecar["png_layout"],
+        "R: channel 0, G: channel 1, B: 0, A: channel 2 (pdf)"
+    );
+    let trace = sidecar["trace"].as_array().unwrap();
+    assert!(trace.len() >= 2, "{sidecar}");
+    let energy = |i: usize| trace[i]["energy"].as_f64().unwrap();
+    assert!(energy(trace.len() - 1) <= energy(0), "{sidecar}");
+    assert!(out.join("points/points_trace.csv").exists());
+}
