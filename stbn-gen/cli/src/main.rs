@@ -53,8 +53,9 @@ enum Command {
         /// Folder for report.md (created if needed).
         #[arg(long)]
         out: PathBuf,
-        /// Also measure white noise, golden-ratio animated and random-shift animated 2D blue
-        /// noise (generated from this seed) at each mask size, side by side.
+        /// Also measure six baselines generated from this seed at each mask size, side by side:
+        /// white noise, independent 2D and isotropic 3D blue noise, golden-ratio and random-shift
+        /// animated 2D blue noise, and Tellusim's layered masks.
         #[arg(long, value_name = "SEED")]
         baselines: Option<u64>,
     },
