@@ -52,13 +52,15 @@
 //! [`histogram`]) how far each frame's and each pixel's values are from uniform.
 
 pub mod convergence;
+pub mod convergence2d;
 pub mod dft;
 pub mod filtered;
 pub mod histogram;
 
 pub use convergence::{Convergence, ConvergenceOptions, Integrand, convergence};
+pub use convergence2d::{Integrand2D, convergence_2d, toroidal_shift};
 pub use dft::{SpectrumImage, dft_xy_image, dft_xz_image};
-pub use filtered::{FilteredErrorOptions, filtered_error, gaussian_weights};
+pub use filtered::{FilteredErrorOptions, filtered_error, filtered_error_vector, gaussian_weights};
 pub use histogram::{pixel_histogram_deviation, slice_histogram_deviation};
 
 use std::fmt;
@@ -177,6 +179,13 @@ pub enum FieldError {
         /// The value.
         value: f64,
     },
+    /// Two fields that must have one size differ: (width, height, depth) of each.
+    Mismatch {
+        /// Size of the first field.
+        first: (usize, usize, usize),
+        /// Size of the second field.
+        second: (usize, usize, usize),
+    },
 }
 
 impl fmt::Display for FieldError {
@@ -200,6 +209,11 @@ impl fmt::Display for FieldError {
             FieldError::ValueOutOfRange { index, value } => {
                 write!(f, "value {value} at index {index} is outside [0, 1]")
             }
+            FieldError::Mismatch { first, second } => write!(
+                f,
+                "fields of sizes {}x{}x{} and {}x{}x{} must have the same size",
+                first.0, first.1, first.2, second.0, second.1, second.2
+            ),
         }
     }
 }

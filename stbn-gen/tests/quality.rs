@@ -264,3 +264,104 @@ fn stbn_128_meets_the_quality_targets() {
         "start at D/3: {stbn_from_third} vs {stbn_from_0}"
     );
 }
+
+/// The paper's Fig. 6 question: does a 2D vector mask integrate 2D functions better than a scalar
+/// mask read at two offsets, or than white pairs? Size from `STBN_QUALITY_SIZE` (`W` for
+/// `W×W×W/2`, default 32); the BENCHMARKS.md table:
+/// `STBN_QUALITY_SIZE=128 cargo test --release -p stbn-gen --test quality vec2_pairs -- --nocapture`.
+#[test]
+fn vec2_pairs_integrate_2d_functions_better_than_white_pairs() {
+    use stbn_gen::analysis::{Integrand2D, convergence_2d, filtered_error_vector, toroidal_shift};
+    use stbn_gen::{SampleSpace, VectorSpec, generate_vector};
+
+    let size: usize = std::env::var("STBN_QUALITY_SIZE")
+        .map(|s| s.parse().expect("STBN_QUALITY_SIZE is a number"))
+        .unwrap_or(32);
+    let (w, h, d) = (size, size, size / 2);
+    let (vector, _) = generate_vector(&VectorSpec::new(
+        w as u32,
+        h as u32,
+        d as u32,
+        7,
+        SampleSpace::Vec { dims: 2 },
+    ))
+    .unwrap();
+    let component = |c: usize| -> Vec<f64> {
+        vector
+            .values()
+            .chunks_exact(2)
+            .map(|v| f64::from(v[c]))
+            .collect()
+    };
+    // The second read of a scalar mask at the R2 offset of dimension 1 (what
+    // `SampleOffset::dimension_offset(1)` gives a renderer): fract(1/g, 1/g²) · size.
+    let g = 1.324_717_957_244_746_f64;
+    let (ox, oy) = (
+        ((1.0 / g) * w as f64) as usize,
+        ((1.0 / (g * g)) * h as f64) as usize,
+    );
+    let offset_pair = |values: Vec<f64>| -> (Vec<f64>, Vec<f64>) {
+        let shifted = toroidal_shift(&Field::new(w, h, d, &values).unwrap(), ox, oy);
+        (values, shifted)
+    };
+    let scalar = |topology| mask(w as u32, h as u32, d as u32, topology);
+    let pairs: Vec<(&str, (Vec<f64>, Vec<f64>))> = vec![
+        (
+            "white pairs",
+            (white_noise(w, h, d, 1), white_noise(w, h, d, 2)),
+        ),
+        (
+            "Independent2D at two offsets",
+            offset_pair(scalar(EnergyTopology::Independent2D)),
+        ),
+        (
+            "scalar STBN at two offsets",
+            offset_pair(scalar(EnergyTopology::Spatiotemporal)),
+        ),
+        ("Vec2 STBN", (component(0), component(1))),
+    ];
+    println!("{w}×{h}×{d}: RMSE after 4 / {} / {d} samples", d / 2);
+    let mut disc_mc = Vec::new();
+    let mut filtered = Vec::new();
+    for (name, (xs, ys)) in &pairs {
+        let (xs, ys) = (
+            Field::new(w, h, d, xs).unwrap(),
+            Field::new(w, h, d, ys).unwrap(),
+        );
+        let error =
+            filtered_error_vector(&[xs.clone(), ys.clone()], FilteredErrorOptions::default())
+                .unwrap();
+        filtered.push(error[d - 1]);
+        println!(
+            "{name}: filtered error (half-spaces) last frame {:.5}",
+            error[d - 1]
+        );
+        for integrand in Integrand2D::ALL {
+            let c = convergence_2d(&xs, &ys, integrand, ConvergenceOptions::new(d)).unwrap();
+            let at = |v: &[f64]| {
+                [4, d / 2, d]
+                    .map(|n| format!("{:.4}", v[n - 1]))
+                    .join(" / ")
+            };
+            println!(
+                "  {}: MC {} | EMA {}",
+                integrand.name(),
+                at(&c.monte_carlo),
+                at(&c.ema)
+            );
+            if integrand == Integrand2D::Disc {
+                disc_mc.push(c.monte_carlo[d / 2 - 1]);
+            }
+        }
+    }
+    // pairs: white, Independent2D ×2, scalar STBN ×2, Vec2 STBN.
+    // Measured at 32×32×16 (debug CI size): disc 0.135 vs 0.175, filtered 0.0130 vs 0.0260.
+    let (white, vec2) = (disc_mc[0], disc_mc[3]);
+    assert!(vec2 < 0.85 * white, "disc MC: Vec2 {vec2} vs white {white}");
+    assert!(
+        filtered[3] < 0.7 * filtered[0],
+        "filtered: Vec2 {} vs white {}",
+        filtered[3],
+        filtered[0]
+    );
+}

@@ -9,10 +9,10 @@ use indicatif::{ProgressBar, ProgressStyle};
 use stbn_build_support::{Generated, Manifest, MaskEntry, Method};
 use stbn_gen::analysis::Field;
 use stbn_gen::export::{PngDepth, write_slices_png};
-use stbn_runtime::{Encoding, PackedStbn};
+use stbn_runtime::{Encoding, PackedStbn, Space, ValueMap};
 
 use crate::report::{self, Row};
-use crate::{Result, ktx2, vector};
+use crate::{Result, ktx2, pairs, vector};
 
 /// How `generate` writes each mask.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -33,6 +33,7 @@ pub enum OutputFormat {
 pub fn run(manifest: &Path, out: &Path, format: OutputFormat) -> Result<()> {
     let manifest = Manifest::load(manifest)?;
     let mut rows = Vec::with_capacity(manifest.masks().len());
+    let mut point_masks = Vec::new();
     for entry in manifest.masks() {
         let start = Instant::now();
         let (generated, blob) = make(entry)?;
@@ -43,6 +44,18 @@ pub fn run(manifest: &Path, out: &Path, format: OutputFormat) -> Result<()> {
             .map_err(|e| mask_error(&e))?;
         let mask = decoded.view();
         let (w, h, d) = (mask.width(), mask.height(), mask.depth());
+        // Uniform points in [0, 1)² (and higher): the 2D integration section measures them.
+        if mask.space() == Space::Vec
+            && mask.header().value_map == ValueMap::Unit
+            && mask.dims() >= 2
+        {
+            point_masks.push(pairs::PointMask {
+                name: entry.name.clone(),
+                size: (w as usize, h as usize, d as usize),
+                xs: vector::channel_values(&mask, 0),
+                ys: vector::channel_values(&mask, 1),
+            });
+        }
         let kind = match entry.kind.method() {
             Method::VoidAndCluster(topology) => topology.name().to_owned(),
             _ => format!("{:?}", entry.kind),
@@ -97,6 +110,15 @@ pub fn run(manifest: &Path, out: &Path, format: OutputFormat) -> Result<()> {
         manifest.path().display()
     );
     let path = report::write(out, &intro, &rows)?;
+    if !point_masks.is_empty() {
+        let section = pairs::section(&point_masks)?;
+        let mut file = fs::OpenOptions::new()
+            .append(true)
+            .open(&path)
+            .map_err(|e| format!("cannot append to {}: {e}", path.display()))?;
+        std::io::Write::write_all(&mut file, section.as_bytes())
+            .map_err(|e| format!("cannot append to {}: {e}", path.display()))?;
+    }
     println!("report: {}", path.display());
     Ok(())
 }

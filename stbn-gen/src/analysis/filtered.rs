@@ -38,7 +38,7 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
-use super::Field;
+use super::{Field, FieldError};
 
 /// The parameters of [`filtered_error`]. [`Default`] is EA's published setting.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -115,6 +115,117 @@ pub fn filtered_error(field: &Field, options: FilteredErrorOptions) -> Vec<f64> 
     sum.iter().map(|s| (s / thresholds as f64).sqrt()).collect()
 }
 
+/// The filtered error of a vector mask: [`filtered_error`] with random half-spaces for
+/// thresholds (FAST's vector case).
+///
+/// `components[c]` holds component `c` of every pixel (`d = components.len() ≥ 1` fields of one
+/// size; any range). For stratum `s ∈ 0..K` at frame `k`, a direction `n` uniform on the unit
+/// sphere of `ℝᵈ` and a fraction `q = (s + u) / K` (`u` uniform in `[0, 1)`) are drawn; the
+/// binary image is 1 at the `⌊q · W·H⌋` pixels whose projection `n · v(p)` is smallest (ties by
+/// pixel index), i.e. the pixels on one side of a hyperplane that holds a fraction `q` of the
+/// frame's values. That fraction being exact makes the figure comparable across sample spaces
+/// (unit vectors, points ∝ an image) and, for `d = 1`, with [`filtered_error`] on masks with exact
+/// frame histograms. The blur, EMA and RMS are those of [`filtered_error`]; the result is
+/// dimensionless coverage, one entry per frame, the same for any thread count.
+///
+/// Errors if the fields differ in size; panics on the options [`filtered_error`] panics on or on
+/// an empty `components`.
+pub fn filtered_error_vector(
+    components: &[Field],
+    options: FilteredErrorOptions,
+) -> Result<Vec<f64>, FieldError> {
+    let FilteredErrorOptions {
+        thresholds,
+        sigma,
+        alpha,
+        seed,
+    } = options;
+    assert!(!components.is_empty(), "at least one component");
+    assert!(thresholds > 0, "at least one threshold");
+    assert!(
+        sigma.is_finite() && sigma > 0.0,
+        "sigma {sigma} must be > 0"
+    );
+    assert!(
+        alpha > 0.0 && alpha <= 1.0,
+        "alpha {alpha} must be in (0, 1]"
+    );
+    let field = &components[0];
+    let size = |f: &Field| (f.width(), f.height(), f.depth());
+    if let Some(other) = components.iter().find(|f| size(f) != size(field)) {
+        return Err(FieldError::Mismatch {
+            first: size(field),
+            second: size(other),
+        });
+    }
+    let (depth, n, d) = (field.depth(), field.slice_pixels(), components.len());
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    // Per (stratum, frame): the fraction q, then the d direction components.
+    let draws: Vec<f64> = (0..thresholds * depth)
+        .flat_map(|i| {
+            let q = ((i / depth) as f64 + rng.random::<f64>()) / thresholds as f64;
+            let direction = unit_direction(&mut rng, d);
+            std::iter::once(q).chain(direction)
+        })
+        .collect();
+    let kernel = gaussian_weights(sigma);
+    let variances: Vec<Vec<f64>> = draws
+        .par_chunks(depth * (d + 1))
+        .map(|draws| {
+            let mut order: Vec<(f64, u32)> = Vec::with_capacity(n);
+            binary_variances(field, &kernel, alpha, |z, binary| {
+                let (q, direction) = (draws[z * (d + 1)], &draws[z * (d + 1) + 1..][..d]);
+                order.clear();
+                order.extend((0..n).map(|p| {
+                    let projection: f64 = components
+                        .iter()
+                        .zip(direction)
+                        .map(|(c, nc)| c.slice(z)[p] * nc)
+                        .sum();
+                    (projection, p as u32)
+                }));
+                let below = ((q * n as f64) as usize).min(n);
+                binary.fill(0.0);
+                if below > 0 {
+                    order.select_nth_unstable_by(below - 1, |a, b| {
+                        a.0.total_cmp(&b.0).then(a.1.cmp(&b.1))
+                    });
+                    for &(_, p) in &order[..below] {
+                        binary[p as usize] = 1.0;
+                    }
+                }
+            })
+        })
+        .collect();
+    let mut sum = vec![0.0; depth];
+    for part in &variances {
+        sum.iter_mut().zip(part).for_each(|(s, v)| *s += v);
+    }
+    Ok(sum.iter().map(|s| (s / thresholds as f64).sqrt()).collect())
+}
+
+/// A direction uniform on the unit sphere of `ℝᵈ`: `d` normal deviates (Box–Muller), normalised;
+/// `(1)` for `d = 1`, whose only directions are ±1 and give the same thresholds up to which side
+/// is 1.
+fn unit_direction(rng: &mut ChaCha8Rng, d: usize) -> Vec<f64> {
+    if d == 1 {
+        return vec![1.0];
+    }
+    loop {
+        let mut v: Vec<f64> = (0..d)
+            .map(|_| {
+                let (u1, u2) = (1.0 - rng.random::<f64>(), rng.random::<f64>());
+                (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
+            })
+            .collect();
+        let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        if norm > 1e-12 {
+            v.iter_mut().for_each(|x| *x /= norm);
+            return v;
+        }
+    }
+}
+
 /// The normalised 1D Gaussian `wᵢ ∝ exp(−i² / (2σ²))`, `i ∈ −r..=r` with `r = ⌈4σ⌉`; entry
 /// `i + r`.
 pub fn gaussian_weights(sigma: f64) -> Vec<f64> {
@@ -161,19 +272,31 @@ fn blur_toroidal(
 
 /// `Var(hₖ)` for every frame of one stratum, whose threshold at frame `k` is `levels[k]`.
 fn threshold_variances(field: &Field, levels: &[f64], kernel: &[f64], alpha: f64) -> Vec<f64> {
+    binary_variances(field, kernel, alpha, |z, binary| {
+        let t = levels[z];
+        for (b, &v) in binary.iter_mut().zip(field.slice(z)) {
+            *b = if v < t { 1.0 } else { 0.0 };
+        }
+    })
+}
+
+/// `Var(hₖ)` for every frame of `field`'s size, where `binarize(k, b)` writes frame `k`'s binary
+/// image into `b` (`W·H` entries, each 0 or 1).
+fn binary_variances(
+    field: &Field,
+    kernel: &[f64],
+    alpha: f64,
+    mut binarize: impl FnMut(usize, &mut [f64]),
+) -> Vec<f64> {
     let (w, h) = (field.width(), field.height());
     let n = w * h;
     let mut binary = vec![0.0; n];
     let mut scratch = vec![0.0; n];
     let mut filtered = vec![0.0; n];
     let mut ema = vec![0.0; n];
-    levels
-        .iter()
-        .enumerate()
-        .map(|(z, &t)| {
-            for (b, &v) in binary.iter_mut().zip(field.slice(z)) {
-                *b = if v < t { 1.0 } else { 0.0 };
-            }
+    (0..field.depth())
+        .map(|z| {
+            binarize(z, &mut binary);
             blur_toroidal(&binary, w, h, kernel, &mut scratch, &mut filtered);
             if z == 0 {
                 ema.copy_from_slice(&filtered);
@@ -283,5 +406,57 @@ mod tests {
             (curve[1] - (1.0 - alpha) * curve[0]).abs() < 1e-12,
             "{curve:?}"
         );
+    }
+
+    #[test]
+    fn vector_thresholds_hold_exact_fractions_and_match_the_scalar_figure_in_1d() {
+        // A permutation per frame (exact histogram): for d = 1 the half-space threshold at
+        // fraction q picks the same pixels as v < t for t = q up to the jitter of one level.
+        let (w, h, d) = (16, 16, 4);
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let mut values = Vec::new();
+        for _ in 0..d {
+            let mut frame: Vec<f64> = (0..w * h)
+                .map(|i| (i as f64 + 0.5) / (w * h) as f64)
+                .collect();
+            for i in (1..frame.len()).rev() {
+                frame.swap(i, rng.random_range(0..=i));
+            }
+            values.extend(frame);
+        }
+        let field = Field::new(w, h, d, &values).unwrap();
+        let options = FilteredErrorOptions::default();
+        let scalar = filtered_error(&field, options);
+        let vector = filtered_error_vector(std::slice::from_ref(&field), options).unwrap();
+        for (s, v) in scalar.iter().zip(&vector) {
+            assert!((s - v).abs() < 0.02 * s, "{scalar:?} vs {vector:?}");
+        }
+        // Two components: white 2D vectors measure near the white-noise expectation, a constant
+        // pair (all pixels on one side of every hyperplane... or split by index ties) is finite.
+        let other: Vec<f64> = values.iter().rev().copied().collect();
+        let second = Field::new(w, h, d, &other).unwrap();
+        let pair = filtered_error_vector(&[field.clone(), second], options).unwrap();
+        assert_eq!(pair.len(), d);
+        assert!(pair.iter().all(|e| e.is_finite() && *e > 0.0), "{pair:?}");
+    }
+
+    #[test]
+    fn vector_fields_of_different_sizes_are_an_error() {
+        let a = Field::new(2, 2, 1, &[0.1; 4]).unwrap();
+        let b = Field::new(4, 1, 1, &[0.1; 4]).unwrap();
+        assert!(filtered_error_vector(&[a, b], FilteredErrorOptions::default()).is_err());
+    }
+
+    #[test]
+    fn directions_are_unit_and_cover_both_signs() {
+        let mut rng = ChaCha8Rng::seed_from_u64(1);
+        let dirs: Vec<Vec<f64>> = (0..200).map(|_| unit_direction(&mut rng, 3)).collect();
+        for v in &dirs {
+            assert!((v.iter().map(|x| x * x).sum::<f64>() - 1.0).abs() < 1e-12);
+        }
+        for c in 0..3 {
+            let mean = dirs.iter().map(|v| v[c]).sum::<f64>() / 200.0;
+            assert!(mean.abs() < 0.15, "component {c} mean {mean}");
+        }
     }
 }

@@ -1,0 +1,143 @@
+//! The report's 2D integration section (the paper's Fig. 6): a mask holding points in `[0, 1)²`
+//! (`Vec2`…`Vec4`, `ImagePoints`) integrates 2D functions per pixel over frames, beside a scalar
+//! STBN mask of the same size read at two offsets (what a renderer without vector masks does) and
+//! beside pairs of white noise.
+
+use std::fmt::Write as _;
+
+use stbn_gen::analysis::{
+    ConvergenceOptions, Field, FilteredErrorOptions, Integrand2D, convergence_2d,
+    filtered_error_vector, toroidal_shift,
+};
+use stbn_gen::baselines::white_noise;
+use stbn_gen::{EnergyTopology, MaskSpec};
+
+use crate::Result;
+
+/// The plastic number `g`: the R2 offset of dimension 1 is `fract(1/g, 1/g²)` of the mask size,
+/// as `stbn_runtime::SampleOffset::dimension_offset(1)` gives it.
+const PLASTIC: f64 = 1.324_717_957_244_746;
+
+/// One mask's 2D samples: components 0 and 1 of every pixel, in `[0, 1)`.
+pub struct PointMask {
+    /// The mask's name.
+    pub name: String,
+    /// `(width, height, depth)`.
+    pub size: (usize, usize, usize),
+    /// Component 0, voxels in index order.
+    pub xs: Vec<f64>,
+    /// Component 1.
+    pub ys: Vec<f64>,
+}
+
+/// Markdown for the section: per mask, RMSE of Monte Carlo and EMA (α 0.1) estimates after 4, 16
+/// and `depth` frames for each [`Integrand2D`], and the half-space filtered error at the last
+/// frame, for the mask and for the two references (generated here with seed 1).
+pub fn section(masks: &[PointMask]) -> Result<String> {
+    let mut md = String::from(
+        "\n## 2D integration (points in [0, 1)²)\n\n\
+         Each pixel integrates a 2D function over frames with the mask's (x, y) as samples \
+         (Wolfe et al. 2022, Fig. 6): a disc of radius 0.4, a Gaussian of σ 0.2 and the step \
+         x + y < 1. RMSE over pixels of the Monte Carlo mean / EMA (α 0.1) after n frames; \
+         `filtered` is EA's filtered error with random half-spaces as thresholds, at the last \
+         frame. References: scalar STBN of the same size read at (x, y) and at the R2 offset \
+         (`dimension_offset(1)`), and two independent white-noise masks. Lower is better.\n",
+    );
+    for mask in masks {
+        let (w, h, d) = mask.size;
+        let stbn = stbn_gen::generate(
+            &MaskSpec::new(w as u32, h as u32, d as u32, 1)
+                .with_topology(EnergyTopology::Spatiotemporal),
+        )
+        .map_err(|e| format!("{}: reference STBN: {e}", mask.name))?
+        .values();
+        let (ox, oy) = (
+            ((1.0 / PLASTIC) * w as f64) as usize,
+            ((1.0 / (PLASTIC * PLASTIC)) * h as f64) as usize,
+        );
+        let shifted = toroidal_shift(&field(mask, &stbn)?, ox, oy);
+        let white = (white_noise(w, h, d, 1), white_noise(w, h, d, 2));
+        let rows = [
+            (format!("`{}`", mask.name), (&mask.xs, &mask.ys)),
+            ("scalar STBN, two offsets".to_owned(), (&stbn, &shifted)),
+            ("white pairs".to_owned(), (&white.0, &white.1)),
+        ];
+        let frames: Vec<usize> = [4, 16, d]
+            .into_iter()
+            .filter(|&n| n <= d)
+            .collect::<std::collections::BTreeSet<_>>()
+            .into_iter()
+            .collect();
+        let _ = writeln!(md, "\n### `{}` ({w}×{h}×{d})\n", mask.name);
+        let mut header = String::from("| samples | filtered |");
+        let mut rule = String::from("|---|---:|");
+        for integrand in Integrand2D::ALL {
+            for n in &frames {
+                let _ = write!(header, " {} MC@{n} | EMA@{n} |", integrand.name());
+                rule.push_str("---:|---:|");
+            }
+        }
+        let _ = writeln!(md, "{header}\n{rule}");
+        for (label, (xs, ys)) in rows {
+            let (xs, ys) = (field(mask, xs)?, field(mask, ys)?);
+            let filtered =
+                filtered_error_vector(&[xs.clone(), ys.clone()], FilteredErrorOptions::default())
+                    .map_err(|e| format!("{}: {e}", mask.name))?;
+            let _ = write!(md, "| {label} | {:.5} |", filtered[d - 1]);
+            for integrand in Integrand2D::ALL {
+                let curve = convergence_2d(&xs, &ys, integrand, ConvergenceOptions::new(d))
+                    .map_err(|e| format!("{}: {e}", mask.name))?;
+                for &n in &frames {
+                    let _ = write!(
+                        md,
+                        " {:.4} | {:.4} |",
+                        curve.monte_carlo[n - 1],
+                        curve.ema[n - 1]
+                    );
+                }
+            }
+            md.push('\n');
+        }
+    }
+    Ok(md)
+}
+
+/// `values` as a field of `mask`'s size.
+fn field<'a>(mask: &PointMask, values: &'a [f64]) -> Result<Field<'a>> {
+    let (w, h, d) = mask.size;
+    Ok(Field::new(w, h, d, values).map_err(|e| format!("{}: {e}", mask.name))?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_section_has_a_row_per_sample_source_and_a_column_per_integrand_and_frame() {
+        let (w, h, d) = (8, 8, 4);
+        let xs = white_noise(w, h, d, 11);
+        let ys = white_noise(w, h, d, 12);
+        let md = section(&[PointMask {
+            name: "pts".into(),
+            size: (w, h, d),
+            xs,
+            ys,
+        }])
+        .unwrap();
+        let table: Vec<&str> = md.lines().filter(|l| l.starts_with('|')).collect();
+        assert_eq!(table.len(), 5, "{md}"); // header, rule, three rows
+        // Depth 4: frames {4} only; 3 integrands × (MC, EMA) + label + filtered.
+        assert_eq!(table[0].matches('|').count(), 1 + 2 + 6, "{}", table[0]);
+        assert!(table[2].starts_with("| `pts` |"));
+        let cells: Vec<f64> = table[3]
+            .split('|')
+            .skip(2)
+            .filter_map(|c| c.trim().parse().ok())
+            .collect();
+        assert_eq!(cells.len(), 7);
+        assert!(
+            cells.iter().all(|c| c.is_finite() && *c >= 0.0),
+            "{cells:?}"
+        );
+    }
+}
