@@ -180,3 +180,32 @@ fn broken_manifest_fails_a_real_cargo_build() {
     assert!(stderr.contains(&error), "{stderr}");
     assert!(!stderr.contains("panicked"), "{stderr}");
 }
+
+#[test]
+fn images_are_tracked_with_rerun_if_changed() {
+    let dir = project(
+        r#"(masks: [
+            (name: "sky", kind: EnvironmentMap, size: (4, 4, 2), seed: 1, encoding: Unorm8,
+             image: "sky.png", swaps_per_pixel: 1),
+            (name: "sky_again", kind: ImagePoints, size: (4, 4, 2), seed: 2, encoding: Unorm8,
+             image: "sky.png", swaps_per_pixel: 1),
+        ])"#,
+    );
+    std::fs::copy(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/sky_16x8.png"),
+        dir.path().join("sky.png"),
+    )
+    .unwrap();
+    let output = run_build_script(dir.path(), &dir.path().join("cache"), |_| {});
+    let stdout = text(&output.stdout);
+    assert!(
+        output.status.success(),
+        "{stdout}\n{}",
+        text(&output.stderr)
+    );
+    let line = format!(
+        "cargo::rerun-if-changed={}",
+        dir.path().join("sky.png").display()
+    );
+    assert_eq!(stdout.matches(&line).count(), 1, "{stdout}");
+}

@@ -56,6 +56,9 @@ pub struct EmbedReport {
     /// Problems that did not stop the build (cache entries that were invalid or could not be
     /// written, stale files that could not be removed).
     pub warnings: Vec<String>,
+    /// Files besides the manifest that the masks were made from (the images of image kinds),
+    /// each once, in manifest order: [`embed`] tracks them with `rerun-if-changed`.
+    pub inputs: Vec<PathBuf>,
 }
 
 impl fmt::Display for EmbedReport {
@@ -151,10 +154,17 @@ pub fn embed_with(config: &EmbedConfig) -> Result<EmbedReport, Error> {
     let code = assets_rs(manifest.path(), &embedded)?;
     let assets_rs = out_dir.join(ASSETS_RS);
     write_if_changed(&assets_rs, code.as_bytes())?;
+    let mut inputs: Vec<PathBuf> = Vec::new();
+    for image in manifest.masks().iter().filter_map(|e| e.image.as_ref()) {
+        if !inputs.contains(&image.path) {
+            inputs.push(image.path.clone());
+        }
+    }
     Ok(EmbedReport {
         masks,
         assets_rs,
         warnings,
+        inputs,
     })
 }
 
@@ -202,8 +212,10 @@ fn env_path(var: &'static str) -> Result<PathBuf, Error> {
 /// `include!(concat!(env!("OUT_DIR"), "/stbn_assets.rs"))`.
 ///
 /// Prints `cargo::rerun-if-changed=<manifest>` and `cargo::rerun-if-env-changed=STBN_CACHE_DIR`
-/// (so an unchanged manifest does not rerun the script), and each warning of the report as
-/// `cargo::warning=`. See [`embed_with`] for what is written.
+/// (so an unchanged manifest does not rerun the script), `cargo::rerun-if-changed=` for every
+/// image the manifest references (a changed image regenerates its masks), and each warning of
+/// the report as `cargo::warning=`. A build whose manifest or image is broken fails, and Cargo
+/// reruns a failed build script on the next build anyway. See [`embed_with`] for what is written.
 ///
 /// # Errors
 /// [`Error::MissingEnv`] outside a build script; otherwise as [`embed_with`].
@@ -219,6 +231,9 @@ pub fn embed(manifest_path: impl AsRef<Path>) -> Result<EmbedReport, Error> {
         out_dir,
         cache,
     })?;
+    for input in &report.inputs {
+        println!("cargo::rerun-if-changed={}", input.display());
+    }
     for warning in &report.warnings {
         for line in warning.lines() {
             println!("cargo::warning={line}");
