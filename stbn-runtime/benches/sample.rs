@@ -1,9 +1,26 @@
-//! Sampling throughput on a 128×128×64 mask: per-sample calls vs. frame fills.
+//! Sampling throughput on 128×128×64 masks, one 128×128 frame per iteration, every API beside
+//! a plain-loop baseline in the same run.
+//!
+//! Scalar masks (groups `unorm8_128x128`, `unorm16_128x128`, `f32_128x128`): `sample`,
+//! `sample_with` (an x/y/frame offset), `sample_dim` (an R2 dimension offset), `fill_row` (a
+//! wrapping row start), `fill_frame`, and `plain_loop`: a hand-written loop that decodes the
+//! frame's bytes straight from the payload (no wrapping, no header), the floor a general
+//! sampler is measured against.
+//!
+//! Vector masks (groups `vec2_<enc>`, `unitvec3_oct_<enc>`, `unitvec3_signed_<enc>`):
+//! `sample_vector` (value and pdf), `sample_vector` with an offset, `sample_vec2` / `sample_vec3`,
+//! and `plain_loop`: the same decode by hand (value map, octahedral decode or normalisation) from
+//! the payload.
+//!
+//! `cargo bench -p stbn-runtime --bench sample -- --warm-up-time 1 --measurement-time 3`
 
 use std::hint::black_box;
 
-use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use stbn_runtime::{Compression, Encoding, MaskHeader, SampleOffset, Stbn};
+use criterion::{BenchmarkGroup, Criterion, Throughput, criterion_group, criterion_main};
+use stbn_runtime::glam::{Vec2, Vec3};
+use stbn_runtime::{
+    Compression, Encoding, MaskHeader, SampleOffset, Space, Stbn, ValueMap, octahedral_decode,
+};
 
 const W: u32 = 128;
 const H: u32 = 128;
@@ -11,7 +28,13 @@ const D: u32 = 64;
 
 /// A 128×128×64 single-channel blob with pseudo-random payload.
 fn blob(encoding: Encoding) -> Vec<u8> {
-    let header = MaskHeader::new(W, H, D, 1, encoding);
+    random_blob(MaskHeader::new(W, H, D, 1, encoding))
+}
+
+/// A 128×128×64 blob described by `header` (any channels, space and value map) with a
+/// pseudo-random payload: Unorm elements uniform over their codes, F32 elements in `[0, 1)`.
+fn random_blob(header: MaskHeader) -> Vec<u8> {
+    let encoding = header.encoding;
     let elements = header.element_count();
     let mut state = 0x2545_F491_4F6C_DD1Du64;
     let mut next = || {
@@ -89,6 +112,36 @@ fn bench_encoding(c: &mut Criterion, name: &str, encoding: Encoding) {
             black_box(&out);
         })
     });
+    group.bench_function("plain_loop", |b| {
+        b.iter(|| {
+            frame = frame.wrapping_add(1);
+            let f = black_box(frame) % D;
+            let data = mask.data();
+            let n = (W * H) as usize;
+            match encoding {
+                Encoding::Unorm8 => {
+                    let bytes = &data[f as usize * n..][..n];
+                    for (o, &q) in out.iter_mut().zip(bytes) {
+                        *o = (f32::from(q) + 0.5) * (1.0 / 256.0);
+                    }
+                }
+                Encoding::Unorm16 => {
+                    let bytes = &data[f as usize * n * 2..][..n * 2];
+                    for (o, q) in out.iter_mut().zip(bytes.chunks_exact(2)) {
+                        let q = u16::from_le_bytes([q[0], q[1]]);
+                        *o = (f32::from(q) + 0.5) * (1.0 / 65536.0);
+                    }
+                }
+                Encoding::F32 => {
+                    let bytes = &data[f as usize * n * 4..][..n * 4];
+                    for (o, v) in out.iter_mut().zip(bytes.chunks_exact(4)) {
+                        *o = f32::from_le_bytes([v[0], v[1], v[2], v[3]]);
+                    }
+                }
+            }
+            black_box(&out);
+        })
+    });
     group.bench_function("sample_dim_loop", |b| {
         b.iter(|| {
             frame = frame.wrapping_add(1);
@@ -105,11 +158,128 @@ fn bench_encoding(c: &mut Criterion, name: &str, encoding: Encoding) {
     group.finish();
 }
 
+/// The stored unit value of element `i` of `data`, decoded as the runtime does.
+#[inline(always)]
+fn unit(data: &[u8], i: usize, encoding: Encoding) -> f32 {
+    match encoding {
+        Encoding::Unorm8 => (f32::from(data[i]) + 0.5) * (1.0 / 256.0),
+        Encoding::Unorm16 => {
+            let q = u16::from_le_bytes([data[2 * i], data[2 * i + 1]]);
+            (f32::from(q) + 0.5) * (1.0 / 65536.0)
+        }
+        Encoding::F32 => f32::from_le_bytes([
+            data[4 * i],
+            data[4 * i + 1],
+            data[4 * i + 2],
+            data[4 * i + 3],
+        ]),
+    }
+}
+
+/// The vector layouts benchmarked: name, space, value map, channels.
+const VECTOR_LAYOUTS: [(&str, Space, ValueMap, u8); 3] = [
+    ("vec2", Space::Vec, ValueMap::Unit, 2),
+    ("unitvec3_oct", Space::UnitVec, ValueMap::Octahedral, 2),
+    ("unitvec3_signed", Space::UnitVec, ValueMap::Signed, 3),
+];
+
+/// Loops calling `read(x, y, frame)` for every pixel of one frame and summing the results'
+/// components (so nothing is optimised away), as `name`.
+fn bench_pixels(
+    group: &mut BenchmarkGroup<'_, criterion::measurement::WallTime>,
+    name: &str,
+    mut read: impl FnMut(i32, i32, u32) -> f32,
+) {
+    let mut frame = 0u32;
+    group.bench_function(name, |b| {
+        b.iter(|| {
+            frame = frame.wrapping_add(1);
+            let f = black_box(frame);
+            let mut sum = 0.0f32;
+            for y in 0..H as i32 {
+                for x in 0..W as i32 {
+                    sum += read(x, y, f);
+                }
+            }
+            black_box(sum)
+        })
+    });
+}
+
+fn bench_vector(c: &mut Criterion, layout: (&str, Space, ValueMap, u8), encoding: Encoding) {
+    let (name, space, map, channels) = layout;
+    let header = MaskHeader::new(W, H, D, channels, encoding).with_space(space, map, 0.0, 0.0);
+    let bytes = random_blob(header);
+    let mask = Stbn::from_bytes(&bytes).unwrap();
+    let suffix = match encoding {
+        Encoding::Unorm8 => "unorm8",
+        Encoding::Unorm16 => "unorm16",
+        Encoding::F32 => "f32",
+    };
+    let mut group = c.benchmark_group(format!("{name}_{suffix}"));
+    group.throughput(Throughput::Elements(u64::from(W * H)));
+    bench_pixels(&mut group, "sample_vector_loop", |x, y, f| {
+        let s = mask.sample_vector(x, y, f, SampleOffset::ZERO);
+        s.value.x + s.value.y + s.value.z + s.pdf
+    });
+    let offset = black_box(SampleOffset {
+        x: 77,
+        y: -13,
+        frame: 5,
+    });
+    bench_pixels(&mut group, "sample_vector_offset_loop", |x, y, f| {
+        let s = mask.sample_vector(x, y, f, offset);
+        s.value.x + s.value.y + s.value.z + s.pdf
+    });
+    if space == Space::Vec {
+        bench_pixels(&mut group, "sample_vec2_loop", |x, y, f| {
+            let v = mask.sample_vec2(x, y, f);
+            v.x + v.y
+        });
+    } else {
+        bench_pixels(&mut group, "sample_vec3_loop", |x, y, f| {
+            let v = mask.sample_vec3(x, y, f);
+            v.x + v.y + v.z
+        });
+    }
+    // The baseline: the frame's voxels decoded straight from the payload, in order.
+    let data = mask.data();
+    let ch = usize::from(channels);
+    bench_pixels(&mut group, "plain_loop", |x, y, f| {
+        let voxel = (((f % D) * H + y as u32) * W + x as u32) as usize * ch;
+        let u = |c: usize| unit(data, voxel + c, encoding);
+        match map {
+            ValueMap::Unit => {
+                let v = Vec2::new(u(0), u(1));
+                v.x + v.y
+            }
+            ValueMap::Octahedral => {
+                let v = octahedral_decode(Vec2::new(u(0) * 2.0 - 1.0, u(1) * 2.0 - 1.0));
+                v.x + v.y + v.z
+            }
+            ValueMap::Signed => {
+                let v = Vec3::new(u(0) * 2.0 - 1.0, u(1) * 2.0 - 1.0, u(2) * 2.0 - 1.0);
+                let v = v.normalize_or_zero();
+                v.x + v.y + v.z
+            }
+        }
+    });
+    group.finish();
+}
+
 fn sampling(c: &mut Criterion) {
     bench_encoding(c, "unorm8_128x128", Encoding::Unorm8);
     bench_encoding(c, "unorm16_128x128", Encoding::Unorm16);
     bench_encoding(c, "f32_128x128", Encoding::F32);
 }
 
-criterion_group!(benches, sampling);
+fn vector_sampling(c: &mut Criterion) {
+    for layout in VECTOR_LAYOUTS {
+        for encoding in [Encoding::Unorm8, Encoding::Unorm16, Encoding::F32] {
+            bench_vector(c, layout, encoding);
+        }
+    }
+}
+
+criterion_group!(benches, sampling, vector_sampling);
 criterion_main!(benches);

@@ -6,6 +6,7 @@ mod generate;
 mod ktx2;
 mod pairs;
 mod report;
+mod tradeoff;
 mod vector;
 
 use std::path::PathBuf;
@@ -60,6 +61,21 @@ enum Command {
         #[arg(long, value_name = "SEED")]
         baselines: Option<u64>,
     },
+    /// Measure what each knob of a mask costs against what it buys (size and depth, σ and
+    /// kernel tolerance, vector swap budget, encoding, compression, thread count, the scale
+    /// targets): CSV files, markdown tables and PNG plots per knob, gathered in
+    /// `<OUT>/tradeoff.md`.
+    Tradeoff {
+        /// Output folder (created if needed).
+        #[arg(long)]
+        out: PathBuf,
+        /// Small masks and few points (a check that runs in seconds; not figures to quote).
+        #[arg(long)]
+        quick: bool,
+        /// Only these knobs (comma-separated); all by default.
+        #[arg(long, value_enum, value_delimiter = ',')]
+        only: Vec<tradeoff::Knob>,
+    },
 }
 
 fn main() -> ExitCode {
@@ -74,6 +90,7 @@ fn main() -> ExitCode {
             out,
             baselines,
         } => analyze::run(&dirs, &out, baselines),
+        Command::Tradeoff { out, quick, only } => tradeoff::run(&out, quick, &only),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

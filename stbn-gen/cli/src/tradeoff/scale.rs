@@ -1,0 +1,204 @@
+//! Issue 6's scale checks: one thread against two (time and identical output), and the largest
+//! masks against their time targets, with memory.
+
+use stbn_gen::{MaskSpec, SampleSpace, VectorSpec};
+
+use super::measure::{Timing, load_average, timed};
+use super::table::{Cell, Table};
+use super::{Knob, Plan, Section, size_name};
+use crate::Result;
+
+/// Runs `work` under [`timed`] inside a rayon pool of `threads` threads.
+fn in_pool<T: PartialEq + Send>(
+    plan: &Plan,
+    threads: usize,
+    work: impl Fn() -> T + Send + Sync,
+) -> Result<(T, Timing)> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| format!("cannot start {threads} threads: {e}"))?;
+    Ok(pool.install(|| timed(plan.max_runs, plan.min_total, &work)))
+}
+
+/// The scalar mask and a Vec2 mask generated in pools of 1 and 2 threads.
+pub fn threads(plan: &Plan) -> Result<Section> {
+    let mut table = Table::new(&[
+        ("mask", "mask", false),
+        ("threads", "threads", true),
+        ("seconds", "seconds", true),
+        ("runs", "runs", true),
+        ("speedup", "speed-up over 1 thread", true),
+        ("identical_to_1_thread", "identical to 1 thread", false),
+    ]);
+    let mut findings = Vec::new();
+    let mut all_identical = true;
+    let (w, h, d) = plan.threads_scalar;
+    let scalar = MaskSpec::new(w, h, d, plan.seed);
+    let (one, t1) = in_pool(plan, 1, || stbn_gen::generate(&scalar))?;
+    let (two, t2) = in_pool(plan, 2, || stbn_gen::generate(&scalar))?;
+    let name = format!("scalar {}", size_name(plan.threads_scalar));
+    rows(&mut table, &name, &t1, &t2, one == two);
+    findings.push(verdict(&name, &t1, &t2, one == two));
+    all_identical &= one == two;
+    let (w, h, d) = plan.vector_size;
+    let vector = VectorSpec::new(w, h, d, plan.seed, SampleSpace::Vec { dims: 2 })
+        .with_swaps_per_pixel(plan.vector_budget);
+    let (one, t1) = in_pool(plan, 1, || stbn_gen::generate_vector(&vector))?;
+    let (two, t2) = in_pool(plan, 2, || stbn_gen::generate_vector(&vector))?;
+    let name = format!(
+        "Vec2 {}, {} swaps per pixel",
+        size_name(plan.vector_size),
+        plan.vector_budget
+    );
+    rows(&mut table, &name, &t1, &t2, one == two);
+    findings.push(verdict(&name, &t1, &t2, one == two));
+    all_identical &= one == two;
+    if !all_identical {
+        return Err(format!("thread count changed a mask: {}", findings.join(" ")).into());
+    }
+    Ok(Section {
+        knob: Knob::Threads,
+        title: "6. One thread against two".to_owned(),
+        method: "The same spec generated inside a rayon pool of 1 thread and of 2 threads \
+                 (`ThreadPoolBuilder::num_threads`, `install`), compared whole (ranks; values \
+                 and energy trace). Void-and-cluster runs its phase 2a beside phases 2b/3; the \
+                 swap optimiser runs the tiles of one colour in parallel. The library promises \
+                 identical output for any thread count; the command fails if it is not."
+            .to_owned(),
+        tables: vec![("threads".to_owned(), "Thread count.".to_owned(), table)],
+        charts: Vec::new(),
+        findings,
+    })
+}
+
+fn rows(table: &mut Table, name: &str, t1: &Timing, t2: &Timing, identical: bool) {
+    for (threads, t) in [(1, t1), (2, t2)] {
+        table.push(vec![
+            Cell::text(name),
+            Cell::int(threads),
+            Cell::sig(t.median(), 3),
+            Cell::int(t.runs.len() as u64),
+            Cell::fixed(t1.median() / t.median(), 2),
+            if threads == 1 {
+                Cell::missing()
+            } else {
+                Cell::yes_no(identical)
+            },
+        ]);
+    }
+}
+
+fn verdict(name: &str, t1: &Timing, t2: &Timing, identical: bool) -> String {
+    format!(
+        "{name}: {:.3} s on 1 thread, {:.3} s on 2 (×{:.2}); output {}.",
+        t1.median(),
+        t2.median(),
+        t1.median() / t2.median(),
+        if identical { "identical" } else { "DIFFERENT" }
+    )
+}
+
+/// The scalar and Vec2 masks of the issue's scale targets: time, peak memory and the estimate.
+pub fn scale(plan: &Plan) -> Result<Section> {
+    let mut table = Table::new(&[
+        ("mask", "mask", false),
+        ("seconds", "seconds", true),
+        ("target_seconds", "target s", true),
+        ("met", "met", false),
+        ("peak_bytes", "peak MB", true),
+        ("estimate_bytes", "estimate MB", true),
+        ("load_before", "load before", false),
+        ("load_after", "load after", false),
+    ]);
+    let mut findings = Vec::new();
+    let ((w, h, d), target) = plan.scale_scalar;
+    let spec = MaskSpec::new(w, h, d, plan.seed);
+    let before = load_average();
+    let (volume, timing) = timed(1, 0.0, || stbn_gen::generate(&spec));
+    volume?;
+    let name = format!("scalar {}", size_name((w, h, d)));
+    push(
+        &mut table,
+        &mut findings,
+        &name,
+        &timing,
+        target,
+        spec.pixels() * MaskSpec::BYTES_PER_PIXEL,
+        before,
+    );
+    let ((w, h, d), target) = plan.scale_vector;
+    let spec = VectorSpec::new(w, h, d, plan.seed, SampleSpace::Vec { dims: 2 });
+    let before = load_average();
+    let (volume, timing) = timed(1, 0.0, || stbn_gen::generate_vector(&spec));
+    volume?;
+    let name = format!(
+        "Vec2 {}, {} swaps per pixel",
+        size_name((w, h, d)),
+        spec.swaps_per_pixel
+    );
+    push(
+        &mut table,
+        &mut findings,
+        &name,
+        &timing,
+        target,
+        spec.pixels() * spec.bytes_per_pixel(),
+        before,
+    );
+    let note = if plan.quick {
+        " In `--quick` mode the masks are small stand-ins and there are no targets."
+    } else {
+        ""
+    };
+    Ok(Section {
+        knob: Knob::Scale,
+        title: "7. Scale targets".to_owned(),
+        method: format!(
+            "Issue 6: scalar 256×256×128 in ≤ 30 s and vector 256×256×64 in ≤ 5 min (release, \
+             two cores), memory reported. One run each, seed {}, default settings (Vec2 at the \
+             default 16 swaps per pixel), on the global rayon pool (all cores).{note}",
+            plan.seed
+        ),
+        tables: vec![("scale".to_owned(), "Scale.".to_owned(), table)],
+        charts: Vec::new(),
+        findings,
+    })
+}
+
+fn push(
+    table: &mut Table,
+    findings: &mut Vec<String>,
+    name: &str,
+    timing: &Timing,
+    target: Option<f64>,
+    estimate: u64,
+    before: String,
+) {
+    let seconds = timing.median();
+    let met = target.map(|t| seconds <= t);
+    let after = load_average();
+    println!("  {name}: {seconds:.2} s");
+    findings.push(format!(
+        "{name}: {seconds:.2} s{}; peak memory {} (estimate {:.1} MB); load {before} → {after}.",
+        match (target, met) {
+            (Some(t), Some(true)) => format!(" (target {t} s: met)"),
+            (Some(t), _) => format!(" (target {t} s: NOT met)"),
+            _ => String::new(),
+        },
+        timing
+            .peak_bytes
+            .map_or("n/a".to_owned(), |b| format!("{:.1} MB", b as f64 / 1e6)),
+        estimate as f64 / 1e6,
+    ));
+    table.push(vec![
+        Cell::text(name),
+        Cell::sig(seconds, 3),
+        Cell::opt_sig(target, 3),
+        met.map_or_else(Cell::missing, Cell::yes_no),
+        Cell::megabytes(timing.peak_bytes),
+        Cell::megabytes(Some(estimate)),
+        Cell::text(before),
+        Cell::text(after),
+    ]);
+}

@@ -1,0 +1,298 @@
+//! The vector optimiser's swap budget: time and final energy per budget, and the energy curve of
+//! one long run.
+
+use std::time::Instant;
+
+use stbn_gen::{
+    SampleSpace, VectorSpec, VectorVolume, generate_vector, generate_vector_with_progress,
+};
+
+use plotters::chart::SeriesLabelPosition;
+
+use super::chart::{Axis, Chart, Series};
+use super::measure::{Quality, timed, with_peak_memory};
+use super::table::{Cell, Table};
+use super::{Knob, Plan, Section, size_name};
+use crate::Result;
+
+/// The spaces the vector knobs measure, with their names.
+pub fn spaces() -> [(&'static str, SampleSpace); 2] {
+    [
+        ("Vec2", SampleSpace::Vec { dims: 2 }),
+        ("UnitVec3", SampleSpace::UnitVec3),
+    ]
+}
+
+/// The first component of every value of `volume` mapped to `[0, 1]`: as stored for `[0, 1)`
+/// spaces, `(c + 1) / 2` for signed ones (the x component of a uniform unit vector is uniform in
+/// `[−1, 1]`, so both are uniform in `[0, 1]`).
+pub fn first_component(volume: &VectorVolume, signed: bool) -> Vec<f64> {
+    volume
+        .values()
+        .chunks_exact(volume.dims())
+        .map(|v| {
+            let c = f64::from(v[0]);
+            if signed {
+                ((c + 1.0) * 0.5).clamp(0.0, 1.0)
+            } else {
+                c.clamp(0.0, 1.0)
+            }
+        })
+        .collect()
+}
+
+/// Whether `space`'s components are signed.
+pub fn is_signed(space: &SampleSpace) -> bool {
+    !matches!(space, SampleSpace::Vec { .. })
+}
+
+/// A point of the energy curve: budget, energy, seconds since the run started (if known).
+#[derive(Clone, Copy, Debug)]
+struct Point {
+    budget: f64,
+    energy: f64,
+    seconds: Option<f64>,
+}
+
+/// Budgets `plan.budgets` run one by one, and one run of `plan.longest_budget` swaps per pixel
+/// whose per-pass energies (the [`stbn_gen::EnergyTrace`]) give the curve, for Vec2 and
+/// UnitVec3 at `plan.swap_size`.
+pub fn run(plan: &Plan) -> Result<Section> {
+    let (w, h, d) = plan.swap_size;
+    let pixels = u64::from(w) * u64::from(h) * u64::from(d);
+    let mut columns = vec![
+        ("space", "space", false),
+        ("swaps_per_pixel", "swaps per pixel", true),
+        ("seconds", "seconds", true),
+        ("runs", "runs", true),
+        ("energy", "energy", false),
+        ("energy_per_pixel", "energy per pixel", true),
+        (
+            "excess_over_longest_percent",
+            "above longest run's final, %",
+            true,
+        ),
+        ("accepted_per_pixel", "accepted swaps per pixel", true),
+        ("same_as_longest_run_trace", "= long run's trace", false),
+    ];
+    columns.extend(Quality::COLUMNS);
+    let mut table = Table::new(&columns);
+    let mut trace_table = Table::new(&[
+        ("space", "space", false),
+        ("swaps_per_pixel", "swaps per pixel", true),
+        ("seconds_since_start", "seconds since start", true),
+        ("energy_per_pixel", "energy per pixel", true),
+        ("excess_over_final_percent", "above final, %", true),
+        (
+            "share_of_decrease_percent",
+            "share of the decrease, %",
+            true,
+        ),
+    ]);
+    let mut excess_series = Vec::new();
+    let mut time_series = Vec::new();
+    let mut findings = Vec::new();
+    for (name, space) in spaces() {
+        let signed = is_signed(&space);
+        // The long run, with the time at the end of every pass.
+        let spec = VectorSpec::new(w, h, d, plan.seed, space.clone())
+            .with_swaps_per_pixel(f64::from(plan.longest_budget));
+        let mut stamps = Vec::new();
+        let start = Instant::now();
+        let (made, peak) = with_peak_memory(|| {
+            generate_vector_with_progress(&spec, &mut |p| {
+                if p.passes_done.fract() == 0.0 {
+                    stamps.push(start.elapsed().as_secs_f64());
+                }
+            })
+        });
+        let long_seconds = start.elapsed().as_secs_f64();
+        let (_, trace) = made?;
+        let energies: Vec<f64> = trace.points.iter().map(|p| p.energy).collect();
+        let (initial, last) = (energies[0], energies[energies.len() - 1]);
+        println!(
+            "  {name}: {} swaps per pixel in {long_seconds:.2} s",
+            plan.longest_budget
+        );
+        let mut curve: Vec<Point> = energies
+            .iter()
+            .enumerate()
+            .map(|(k, &energy)| Point {
+                budget: k as f64,
+                energy,
+                seconds: k.checked_sub(1).and_then(|i| stamps.get(i).copied()),
+            })
+            .collect();
+        // The budgets run one by one.
+        let mut times = Series {
+            name: name.to_owned(),
+            ..Series::default()
+        };
+        for &budget in &plan.budgets {
+            let spec =
+                VectorSpec::new(w, h, d, plan.seed, space.clone()).with_swaps_per_pixel(budget);
+            let (made, timing) = timed(plan.max_runs, plan.min_total, || generate_vector(&spec));
+            let (volume, trace) = made?;
+            if !timing.repeatable {
+                return Err(format!("{name} budget {budget}: repeated runs differ").into());
+            }
+            let end = trace.points.last().expect("a trace has its initial point");
+            let seconds = timing.median();
+            println!("  {name}: {budget} swaps per pixel in {seconds:.3} s");
+            let same = (budget.fract() == 0.0 && (budget as usize) < energies.len())
+                .then(|| energies[budget as usize].to_bits() == end.energy.to_bits());
+            if budget == 0.0 {
+                // The long run's initial point: what a run without swaps costs.
+                curve[0].seconds = Some(seconds);
+            } else if budget.fract() != 0.0 {
+                curve.push(Point {
+                    budget,
+                    energy: end.energy,
+                    seconds: Some(seconds),
+                });
+            }
+            let quality = Quality::of_values(w, h, d, &first_component(&volume, signed));
+            let mut row = vec![
+                Cell::text(name),
+                Cell::sig(budget, 3),
+                Cell::sig(seconds, 3),
+                Cell::int(timing.runs.len() as u64),
+                Cell::sig(end.energy, 12),
+                Cell::fixed(end.energy / pixels as f64, 5),
+                Cell::sig(100.0 * (end.energy / last - 1.0), 3),
+                Cell::fixed(end.swaps_accepted as f64 / pixels as f64, 3),
+                same.map_or_else(Cell::missing, Cell::yes_no),
+            ];
+            row.extend(quality.cells());
+            table.push(row);
+            if budget > 0.0 {
+                times.points.push((budget, seconds));
+            }
+        }
+        time_series.push(times);
+        curve.sort_by(|a, b| a.budget.total_cmp(&b.budget));
+        let decrease = initial - last;
+        let first_within = |ok: &dyn Fn(f64) -> bool| curve.iter().find(|p| ok(p.energy)).copied();
+        let describe = |p: Option<Point>| match p {
+            Some(p) => format!(
+                "{} swaps per pixel ({})",
+                p.budget,
+                p.seconds
+                    .map_or("time n/a".to_owned(), |s| format!("{s:.2} s"))
+            ),
+            None => "not reached".to_owned(),
+        };
+        let within = first_within(&|e| e <= last * 1.01);
+        let ninety = first_within(&|e| initial - e >= 0.9 * decrease);
+        let ninety_nine = first_within(&|e| initial - e >= 0.99 * decrease);
+        findings.push(format!(
+            "{name} {}: the long run ({} swaps per pixel, {long_seconds:.1} s, peak memory {}, \
+             estimate {:.1} MB) went from {:.5} to {:.5} energy per pixel ({:.2}% lower). Within \
+             1% of its final energy at {}; 90% of the decrease at {}; 99% at {}.",
+            size_name(plan.swap_size),
+            plan.longest_budget,
+            peak.map_or("n/a".to_owned(), |b| format!("{:.1} MB", b as f64 / 1e6)),
+            (pixels * spec.bytes_per_pixel()) as f64 / 1e6,
+            initial / pixels as f64,
+            last / pixels as f64,
+            100.0 * decrease / initial,
+            describe(within),
+            describe(ninety),
+            describe(ninety_nine),
+        ));
+        let mut excess = Series {
+            name: name.to_owned(),
+            ..Series::default()
+        };
+        for p in &curve {
+            if p.budget > 0.0 {
+                excess.points.push((p.budget, 100.0 * p.energy / initial));
+            }
+            let shown = p.budget.fract() == 0.0
+                && (p.budget == 0.0
+                    || (p.budget as u64).is_power_of_two()
+                    || p.budget == f64::from(plan.longest_budget));
+            if shown {
+                trace_table.push(vec![
+                    Cell::text(name),
+                    Cell::sig(p.budget, 3),
+                    Cell::opt_sig(p.seconds, 3),
+                    Cell::fixed(p.energy / pixels as f64, 5),
+                    Cell::sig(100.0 * (p.energy / last - 1.0), 3),
+                    Cell::fixed(
+                        if decrease > 0.0 {
+                            100.0 * (initial - p.energy) / decrease
+                        } else {
+                            100.0
+                        },
+                        1,
+                    ),
+                ]);
+            }
+        }
+        excess_series.push(excess);
+    }
+    Ok(Section {
+        knob: Knob::Swaps,
+        title: "3. Vector swap budget (Vec2, UnitVec3)".to_owned(),
+        method: format!(
+            "`stbn_gen::generate_vector(&VectorSpec::new({w}, {h}, {d}, {}, space)\
+             .with_swaps_per_pixel(b))` for each budget b, other fields at their defaults \
+             (σi 1.9, σs 1.0, tolerance 5·10⁻³, initial arrangement from a scalar STBN mask). \
+             *Energy* is the optimiser's own objective (the sum over interacting pixel pairs of \
+             the paper's §4.2 energy; lower is better) at the end of the run. Pass k of a run \
+             draws its proposals from streams keyed by (seed, k), so a run of b whole swaps per \
+             pixel is exactly the first b passes of a longer run: the column \"= long run's \
+             trace\" checks that bit for bit against one run of {} swaps per pixel, whose energy \
+             after each pass (and the time since it started, from the progress callback) gives \
+             the second table and the curve. Its final energy is the reference of the \
+             \"above … final\" columns. Quality columns: the first component of each value, \
+             mapped to [0, 1] ((x + 1)/2 for UnitVec3). They are not the optimiser's \
+             objective, and the step integrand [x < ½] of the MC and EMA columns is a special \
+             case here: the initial arrangement hands out values in Hilbert-curve order by the \
+             ranks of a scalar STBN mask, and the first half of that curve is the half \
+             x < ½ of the value box, so at budget 0 this integrand converges as the scalar \
+             mask of the same size does (compare section 1), and swaps, which lower the energy \
+             of the whole vector, give some of that back.",
+            plan.seed, plan.longest_budget
+        ),
+        tables: vec![
+            (
+                "swaps".to_owned(),
+                "Budgets run one by one.".to_owned(),
+                table,
+            ),
+            (
+                "swaps_trace".to_owned(),
+                format!(
+                    "The long run ({} swaps per pixel), at 0, 1, 2, 4, … swaps per pixel.",
+                    plan.longest_budget
+                ),
+                trace_table,
+            ),
+        ],
+        charts: vec![
+            (
+                "swaps_energy".to_owned(),
+                Chart {
+                    title: "Energy against the budget".to_owned(),
+                    x: Axis::log("swaps per pixel"),
+                    y: Axis::linear("energy, % of the initial (budget 0) energy"),
+                    series: excess_series,
+                    legend: SeriesLabelPosition::LowerLeft,
+                },
+            ),
+            (
+                "swaps_time".to_owned(),
+                Chart {
+                    title: "Generation time against the budget".to_owned(),
+                    x: Axis::log("swaps per pixel"),
+                    y: Axis::log("seconds"),
+                    series: time_series,
+                    legend: SeriesLabelPosition::UpperLeft,
+                },
+            ),
+        ],
+        findings,
+    })
+}

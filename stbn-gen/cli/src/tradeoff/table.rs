@@ -1,0 +1,215 @@
+//! A table of figures written twice: as CSV (every digit an `f64` holds, empty for a missing
+//! figure) and as a markdown table (rounded for reading, `n/a` for a missing figure).
+
+/// One field: its CSV text and its markdown text.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Cell {
+    /// Exact: shortest round-trip formatting of numbers, empty when missing.
+    pub csv: String,
+    /// For reading: rounded, `n/a` when missing.
+    pub md: String,
+}
+
+impl Cell {
+    /// The same text in both files.
+    pub fn text(text: impl Into<String>) -> Cell {
+        let text = text.into();
+        Cell {
+            csv: text.clone(),
+            md: text,
+        }
+    }
+
+    /// An integer.
+    pub fn int(value: u64) -> Cell {
+        Cell {
+            csv: value.to_string(),
+            md: group_digits(value),
+        }
+    }
+
+    /// `value` with `decimals` decimals in markdown.
+    pub fn fixed(value: f64, decimals: usize) -> Cell {
+        Cell {
+            csv: format!("{value}"),
+            md: format!("{value:.decimals$}"),
+        }
+    }
+
+    /// `value` with `digits` significant digits in markdown (plain notation between 10⁻³ and
+    /// 10⁶, scientific outside).
+    pub fn sig(value: f64, digits: usize) -> Cell {
+        Cell {
+            csv: format!("{value}"),
+            md: significant(value, digits),
+        }
+    }
+
+    /// [`Cell::sig`] of `value`, or a missing figure.
+    pub fn opt_sig(value: Option<f64>, digits: usize) -> Cell {
+        value.map_or_else(Cell::missing, |v| Cell::sig(v, digits))
+    }
+
+    /// [`Cell::fixed`] of `value`, or a missing figure.
+    pub fn opt_fixed(value: Option<f64>, decimals: usize) -> Cell {
+        value.map_or_else(Cell::missing, |v| Cell::fixed(v, decimals))
+    }
+
+    /// A byte count in markdown as MB (10⁶ bytes, one decimal); exact bytes in CSV.
+    pub fn megabytes(bytes: Option<u64>) -> Cell {
+        bytes.map_or_else(Cell::missing, |b| Cell {
+            csv: b.to_string(),
+            md: format!("{:.1}", b as f64 / 1e6),
+        })
+    }
+
+    /// A figure that does not exist or could not be measured.
+    pub fn missing() -> Cell {
+        Cell {
+            csv: String::new(),
+            md: "n/a".to_owned(),
+        }
+    }
+
+    /// `yes` / `no`.
+    pub fn yes_no(value: bool) -> Cell {
+        Cell::text(if value { "yes" } else { "no" })
+    }
+}
+
+/// `value` rounded to `digits` significant digits.
+pub fn significant(value: f64, digits: usize) -> String {
+    if value == 0.0 || !value.is_finite() {
+        return format!("{value}");
+    }
+    let magnitude = value.abs().log10().floor() as i32;
+    if !(-3..6).contains(&magnitude) {
+        return format!("{value:.prec$e}", prec = digits.saturating_sub(1));
+    }
+    let decimals = (digits as i32 - 1 - magnitude).max(0) as usize;
+    format!("{value:.decimals$}")
+}
+
+/// `1234567` as `1,234,567`.
+fn group_digits(value: u64) -> String {
+    let digits = value.to_string();
+    let mut out = String::with_capacity(digits.len() + digits.len() / 3);
+    for (i, c) in digits.chars().enumerate() {
+        if i > 0 && (digits.len() - i) % 3 == 0 {
+            out.push(',');
+        }
+        out.push(c);
+    }
+    out
+}
+
+/// One column: its CSV name (`snake_case`, with units) and its markdown heading.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Column {
+    /// CSV header field.
+    pub csv: &'static str,
+    /// Markdown heading.
+    pub md: String,
+    /// Right-aligned in markdown (numbers).
+    pub numeric: bool,
+}
+
+/// Columns and rows; every row is as long as the columns.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Table {
+    /// The columns, in order.
+    pub columns: Vec<Column>,
+    /// The rows.
+    pub rows: Vec<Vec<Cell>>,
+}
+
+impl Table {
+    /// A table with `columns` given as `(csv name, markdown heading, numeric)`.
+    pub fn new(columns: &[(&'static str, &str, bool)]) -> Table {
+        Table {
+            columns: columns
+                .iter()
+                .map(|&(csv, md, numeric)| Column {
+                    csv,
+                    md: md.to_owned(),
+                    numeric,
+                })
+                .collect(),
+            rows: Vec::new(),
+        }
+    }
+
+    /// Appends a row. Panics if its length differs from the columns'.
+    pub fn push(&mut self, row: Vec<Cell>) {
+        assert_eq!(row.len(), self.columns.len(), "row length");
+        self.rows.push(row);
+    }
+
+    /// The CSV text (RFC 4180 quoting, `\n` line ends, a header row).
+    pub fn csv(&self) -> String {
+        let line = |fields: Vec<&str>| {
+            let quoted: Vec<String> = fields.into_iter().map(quote).collect();
+            quoted.join(",") + "\n"
+        };
+        let mut text = line(self.columns.iter().map(|c| c.csv).collect());
+        for row in &self.rows {
+            text.push_str(&line(row.iter().map(|c| c.csv.as_str()).collect()));
+        }
+        text
+    }
+
+    /// The markdown table.
+    pub fn markdown(&self) -> String {
+        let escape = |s: &str| s.replace('|', "\\|");
+        let headings: Vec<String> = self.columns.iter().map(|c| escape(&c.md)).collect();
+        let rule: Vec<&str> = self
+            .columns
+            .iter()
+            .map(|c| if c.numeric { "---:" } else { "---" })
+            .collect();
+        let mut text = format!("| {} |\n|{}|\n", headings.join(" | "), rule.join("|"));
+        for row in &self.rows {
+            let cells: Vec<String> = row.iter().map(|c| escape(&c.md)).collect();
+            text.push_str(&format!("| {} |\n", cells.join(" | ")));
+        }
+        text
+    }
+}
+
+/// `field` quoted if it holds a comma, a quote or a line break.
+fn quote(field: &str) -> String {
+    if field.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", field.replace('"', "\"\""))
+    } else {
+        field.to_owned()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cells_keep_every_digit_in_csv_and_round_in_markdown() {
+        let c = Cell::sig(0.004_389_712, 3);
+        assert_eq!((c.csv.as_str(), c.md.as_str()), ("0.004389712", "0.00439"));
+        assert_eq!(Cell::sig(1234.5678, 3).md, "1235");
+        assert_eq!(Cell::sig(2.5e-5, 2).md, "2.5e-5");
+        assert_eq!(Cell::int(1_234_567).md, "1,234,567");
+        assert_eq!(Cell::int(1_234_567).csv, "1234567");
+        assert_eq!(Cell::megabytes(Some(138_400_000)).md, "138.4");
+        let m = Cell::opt_sig(None, 3);
+        assert_eq!((m.csv.as_str(), m.md.as_str()), ("", "n/a"));
+    }
+
+    #[test]
+    fn csv_quotes_and_markdown_escapes() {
+        let mut table = Table::new(&[("name", "name", false), ("value_s", "value (s)", true)]);
+        table.push(vec![Cell::text("a,b|c"), Cell::fixed(1.5, 2)]);
+        assert_eq!(table.csv(), "name,value_s\n\"a,b|c\",1.5\n");
+        assert_eq!(
+            table.markdown(),
+            "| name | value (s) |\n|---|---:|\n| a,b\\|c | 1.50 |\n"
+        );
+    }
+}
