@@ -23,7 +23,7 @@ use stbn_gen::VectorSpecError;
 use stbn_runtime::{Compression, Encoding, MaskHeader, PackedStbn};
 
 use crate::Error;
-use crate::encode::DEFLATE_LEVEL;
+use crate::encode::{DEFLATE_LEVEL, ENCODER_VERSION};
 use crate::recipe::Recipe;
 
 /// Version of the generator's output, part of every cache key.
@@ -58,6 +58,7 @@ fn canonical_description(recipe: &Recipe, encoding: Encoding, compression: Compr
     format!(
         "stbn-build-support cache entry\n\
          generator_version={GENERATOR_VERSION}\n\
+         encoder_version={ENCODER_VERSION}\n\
          stbn_format_version={}\n\
          deflate_level={DEFLATE_LEVEL}\n\
          encoding={encoding:?}\ncompression={compression:?}\n{}",

@@ -7,20 +7,46 @@ use stbn_runtime::{Compression, Encoding, MaskHeader, Space, ValueMap, octahedra
 /// The miniz_oxide level used for [`Compression::Deflate`] (0–10; 9 is zlib's "best").
 pub const DEFLATE_LEVEL: u8 = 9;
 
+/// Version of the quantisation rules below, part of every cache key: 2 since Unorm values store
+/// the level nearest to `(rank + ½) / pixels` (version 1 stored `rank · 2^bits / pixels`, half a
+/// rank low when a slice has fewer pixels than levels).
+pub const ENCODER_VERSION: u32 = 2;
+
+/// The Unorm level of rank `rank` in a slice of `pixels` pixels with `bits` bits: the level
+/// `q ∈ 0..2^bits` whose midpoint `(q + ½) / 2^bits` is nearest to the exact value
+/// `(rank + ½) / pixels`, in integer arithmetic. Ties (the value on a level boundary, which
+/// happens when a slice has fewer pixels than levels) go toward ½, so rank `r` and rank
+/// `pixels − 1 − r` map to mirrored levels and a slice's decoded mean is exactly ½ for an even
+/// pixel count. When `2^bits` divides `pixels` there are no ties and every level holds
+/// `pixels / 2^bits` ranks.
+pub fn unorm_level(rank: u64, pixels: u64, bits: u32) -> u64 {
+    debug_assert!(rank < pixels && bits <= 16);
+    // The exact value in level units is x = (2r + 1) · 2^bits / (2n).
+    let (numerator, denominator) = ((2 * rank + 1) << bits, 2 * pixels);
+    let q = numerator / denominator;
+    let tie = numerator % denominator == 0;
+    if tie && 2 * rank + 1 < pixels {
+        q - 1
+    } else {
+        q
+    }
+}
+
 /// The stored value of rank `rank` in a slice of `pixels` pixels, as `encoding` stores it
 /// (little-endian bytes, 1, 2 or 4 of them):
 ///
-/// * `Unorm8`: `q = rank · 256 / pixels` (floor), so each of the 256 levels holds the same number
-///   of pixels when 256 divides `pixels`; the runtime reads `(q + 0.5) / 256`.
-/// * `Unorm16`: `q = rank · 65536 / pixels` (floor); read as `(q + 0.5) / 65536`.
+/// * `Unorm8`, `Unorm16`: `q = `[`unorm_level`]`(rank, pixels, 8 or 16)`, read by the runtime as
+///   `(q + 0.5) / 2^bits`;
 /// * `F32`: `(rank + 0.5) / pixels`, rounded once from `f64`.
 ///
 /// `rank < pixels` for every rank of a [`Volume`], so the Unorm values stay in range.
 fn push_value(out: &mut Vec<u8>, rank: u32, pixels: u64, encoding: Encoding) {
     let rank = u64::from(rank);
     match encoding {
-        Encoding::Unorm8 => out.push((rank * 256 / pixels) as u8),
-        Encoding::Unorm16 => out.extend_from_slice(&((rank * 65536 / pixels) as u16).to_le_bytes()),
+        Encoding::Unorm8 => out.push(unorm_level(rank, pixels, 8) as u8),
+        Encoding::Unorm16 => {
+            out.extend_from_slice(&(unorm_level(rank, pixels, 16) as u16).to_le_bytes())
+        }
         Encoding::F32 => {
             let value = ((rank as f64 + 0.5) / pixels as f64) as f32;
             out.extend_from_slice(&value.to_le_bytes());
@@ -43,8 +69,9 @@ pub fn encode_payload(volume: &Volume, encoding: Encoding) -> Vec<u8> {
 /// (value map [`ValueMap::Unit`], pdf range 0) followed by the payload.
 ///
 /// A slice of `n = width · height` pixels stores rank `r` as
-/// * `Unorm8`: `q = r · 256 / n` (integer floor), decoded by the runtime as `(q + 0.5) / 256`;
-/// * `Unorm16`: `q = r · 65536 / n`, decoded as `(q + 0.5) / 65536`;
+/// * `Unorm8`: the level `q` whose midpoint is nearest to `(r + ½) / n` ([`unorm_level`]),
+///   decoded by the runtime as `(q + 0.5) / 256`;
+/// * `Unorm16`: likewise with 65536 levels, decoded as `(q + 0.5) / 65536`;
 /// * `F32`: `(r + 0.5) / n` as `f32`.
 ///
 /// Compression: [`Compression::Lz4`] is the LZ4 *block* format (no size prefix),
@@ -237,16 +264,70 @@ mod tests {
     #[test]
     fn quantisation_formulas() {
         let mut out = Vec::new();
+        // 8 pixels, 256 levels: (r + ½)/8 falls on level boundaries 16 and 240; the lower half
+        // rounds down, the upper half up (mirrored: 15 + 240 = 255).
         push_value(&mut out, 0, 8, Encoding::Unorm8);
         push_value(&mut out, 7, 8, Encoding::Unorm8);
         push_value(&mut out, 4095, 4096, Encoding::Unorm8);
-        assert_eq!(out, [0, 224, 255]);
+        assert_eq!(out, [15, 240, 255]);
         out.clear();
         push_value(&mut out, 3, 8, Encoding::Unorm16);
-        assert_eq!(out, (3u16 * 8192).to_le_bytes());
+        assert_eq!(out, (7u16 * 4096 - 1).to_le_bytes());
         out.clear();
         push_value(&mut out, 1, 4, Encoding::F32);
         assert_eq!(out, 0.375f32.to_le_bytes());
+    }
+
+    #[test]
+    fn unorm_levels_are_nearest_mirrored_and_unbiased() {
+        for bits in [8, 16] {
+            let levels = 1u64 << bits;
+            for n in [
+                1u64,
+                2,
+                7,
+                8,
+                64,
+                255,
+                256,
+                527,
+                4096,
+                65536,
+                65536 * 3,
+                1 << 20,
+            ] {
+                if n > 1 << 20 {
+                    continue;
+                }
+                let mut sum = 0.0;
+                for r in 0..n {
+                    let q = unorm_level(r, n, bits);
+                    assert!(q < levels);
+                    // Nearest level: the exact value lies within half a level of q's midpoint.
+                    let exact = (r as f64 + 0.5) / n as f64;
+                    let decoded = (q as f64 + 0.5) / levels as f64;
+                    assert!(
+                        (decoded - exact).abs() <= 0.5 / levels as f64 + 1e-15,
+                        "bits {bits} n {n} r {r}: q {q}"
+                    );
+                    if n % 2 == 0 || r != n / 2 {
+                        assert_eq!(
+                            q + unorm_level(n - 1 - r, n, bits),
+                            levels - 1,
+                            "n {n} r {r}"
+                        );
+                    }
+                    sum += decoded;
+                }
+                if n % 2 == 0 {
+                    assert_eq!(sum / n as f64, 0.5, "bits {bits} n {n}");
+                }
+                // Where the level count divides the slice, version 1's rank · 2^bits / n.
+                if n % levels == 0 {
+                    assert!((0..n).all(|r| unorm_level(r, n, bits) == r * levels / n));
+                }
+            }
+        }
     }
 
     #[test]

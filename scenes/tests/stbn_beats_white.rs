@@ -100,11 +100,11 @@ fn cloud() {
         ..CloudParams::default()
     };
     let scene = Cloud::new(IMAGE, IMAGE, DensityGrid::cloud(32, 1), params);
-    // Measured: 0.471, 0.376, 0.268, 0.283.
+    // Measured: 0.471, 0.378, 0.267, 0.297 (encoder version 2; 0.283 blurred-mean before it).
     assert_at_most(
         scene.name(),
         &ratios(&scene, NoiseKind::Stbn, NoiseKind::White),
-        [0.48, 0.38, 0.27, 0.29],
+        [0.48, 0.38, 0.27, 0.30],
     );
 }
 
