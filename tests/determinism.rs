@@ -1,5 +1,6 @@
 //! The same manifest gives byte-identical blobs with 1 and 2 threads and across runs, for every
-//! kind (void-and-cluster, baselines and the swap optimiser), compared by BLAKE3 digest.
+//! kind (void-and-cluster, baselines, the swap optimiser and the filter-adapted one), compared by
+//! BLAKE3 digest.
 
 use stbn_build_support::Manifest;
 
@@ -16,6 +17,8 @@ const MANIFEST: &str = r#"(
         (name: "vec2", kind: Vec2, size: (16, 16, 8), seed: 8, encoding: Unorm16),
         (name: "unit3", kind: UnitVec3, size: (16, 16, 8), seed: 9, encoding: Unorm8),
         (name: "cosine", kind: CosineHemisphere, size: (16, 16, 8), seed: 10, octahedral: false, encoding: F32, compression: Lz4),
+        (name: "fast", kind: FilterAdapted, size: (16, 16, 8), seed: 11, encoding: Unorm16),
+        (name: "fast_vec2", kind: FilterAdapted, size: (16, 16, 8), seed: 12, space: Vec2, swaps_per_pixel: 8.0, encoding: Unorm8),
     ],
 )"#;
 

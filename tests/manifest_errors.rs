@@ -468,3 +468,114 @@ fn fields_that_do_not_apply_to_a_kind_are_refused() {
     );
     assert_eq!(err.field(), Some("sigma_value"));
 }
+
+#[test]
+fn filter_adapted_fields_are_checked_and_named() {
+    let mask = |fields: &str| {
+        format!(
+            "(masks: [(name: \"m\", kind: FilterAdapted, size: (16, 16, 8), seed: 1, {fields}, \
+             encoding: Unorm8)])"
+        )
+    };
+    // Accepted: every filter, a vector space, the budget and tolerance.
+    for fields in [
+        "spatial_filter: Gaussian(1.3435), temporal_filter: Exponential(0.1)",
+        "spatial_filter: Box(3), temporal_filter: Box(4), filter_combination: Separate(0.5)",
+        "spatial_filter: Binomial(2), temporal_filter: ExponentialHistory(0.1, 0.1)",
+        "temporal_filter: Gaussian(2.0), filter_combination: Product",
+        "space: Vec2, swaps_per_pixel: 2.0, kernel_tolerance: 1e-2",
+        "space: UnitVec3, octahedral: false",
+    ] {
+        let text = mask(fields);
+        Manifest::parse(&text, "assets.ron").unwrap_or_else(|e| panic!("{fields}: {e}"));
+    }
+    let cases = [
+        (
+            "spatial_filter: Gaussian(-1.0)",
+            "spatial_filter",
+            "Gaussian sigma is -1",
+        ),
+        ("spatial_filter: Box(0)", "spatial_filter", "Box size is 0"),
+        ("spatial_filter: Gauss(1.0)", "spatial_filter", "Gauss"),
+        (
+            "temporal_filter: Exponential(1.5)",
+            "temporal_filter",
+            "alpha is 1.5",
+        ),
+        (
+            "temporal_filter: ExponentialHistory(0.1, 0.0)",
+            "temporal_filter",
+            "beta is 0",
+        ),
+        (
+            "filter_combination: Separate(2.0)",
+            "filter_combination",
+            "spatial_weight is 2",
+        ),
+        ("space: Scalar", "space", "Scalar is not a vector kind"),
+        (
+            "space: ImagePoints",
+            "space",
+            "ImagePoints is not a vector kind",
+        ),
+        ("octahedral: true", "octahedral", "3D unit `space`"),
+        (
+            "space: Vec2, octahedral: true",
+            "octahedral",
+            "3D unit `space`",
+        ),
+        (
+            "sigma: 1.9",
+            "sigma",
+            "does not apply to FilterAdapted masks",
+        ),
+        (
+            "density: 0.2",
+            "density",
+            "does not apply to FilterAdapted masks",
+        ),
+        (
+            "swaps_per_pixel: -3.0",
+            "swaps_per_pixel",
+            "must be in 0..=10000",
+        ),
+        (
+            "kernel_tolerance: 2.0",
+            "kernel_tolerance",
+            "must be in (0, 1)",
+        ),
+    ];
+    for (fields, field, message) in cases {
+        let text = mask(fields);
+        let err = error(&text);
+        assert_eq!(err.field(), Some(field), "{fields}: {err}");
+        assert_eq!(
+            (err.line(), err.mask_name()),
+            (1, Some("m")),
+            "{fields}: {err}"
+        );
+        // The column is where the field's value starts.
+        let value = text.find(&format!("{field}: ")).unwrap() + field.len() + 3;
+        assert_eq!(err.column(), value, "{fields}: {err}");
+        assert!(err.message().contains(message), "{fields}: {err}");
+    }
+    // Filter fields on other kinds are refused, naming the kind they apply to.
+    for field in [
+        "spatial_filter: Box(3)",
+        "temporal_filter: Box(3)",
+        "filter_combination: Product",
+        "space: Vec2",
+    ] {
+        let text = format!(
+            "(masks: [(name: \"m\", kind: Vec2, size: (8, 8, 4), seed: 1, {field}, \
+             encoding: Unorm8)])"
+        );
+        let err = error(&text);
+        assert_eq!(err.field(), field.split(':').next(), "{err}");
+        assert!(
+            err.message()
+                .starts_with("does not apply to Vec2 masks (it applies to FilterAdapted)"),
+            "{err}"
+        );
+    }
+}

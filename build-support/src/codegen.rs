@@ -65,7 +65,11 @@ fn declare(out: &mut String, mask: &EmbeddedMask<'_>, path: &str) {
     let values = match entry.encoding {
         Encoding::Unorm8 => "Unorm8: 8-bit levels `q`, sampled as `(q + 0.5) / 256`",
         Encoding::Unorm16 => "Unorm16: 16-bit levels `q`, sampled as `(q + 0.5) / 65536`",
-        Encoding::F32 if channels == 1 && entry.kind.method() != Method::Swap => {
+        Encoding::F32
+            if channels == 1
+                && entry.kind.method() != Method::Swap
+                && (entry.kind.method() != Method::FilterAdapted || entry.space.is_none()) =>
+        {
             "F32: `(rank + 0.5) / (width · height)` stored as `f32`"
         }
         Encoding::F32 => "F32: each channel stored as `f32`",
@@ -100,6 +104,19 @@ fn declare(out: &mut String, mask: &EmbeddedMask<'_>, path: &str) {
             "Seed {}; swap optimiser with σ {} pixels/frames, value σ {}, {} swaps per pixel.\n\
              /// * Read it with `sample_vector` / `sample_vec2..4` / `sample_pdf`.",
             entry.seed, entry.sigma, entry.sigma_value, entry.swaps_per_pixel
+        ),
+        Method::FilterAdapted => format!(
+            "Seed {}; optimised for a {} × {} filter ({}), {} swaps per pixel.\n/// * {}",
+            entry.seed,
+            entry.spatial_filter,
+            entry.temporal_filter,
+            entry.filter_combination,
+            entry.swaps_per_pixel,
+            match entry.space {
+                None => "Scalar: read it with `sample`.".to_owned(),
+                Some(space) =>
+                    format!("{space:?} values: read them with `sample_vector` / `sample_vec2..4`."),
+            }
         ),
     };
     // `{:?}` of a `str` is a valid Rust string literal.
@@ -144,6 +161,10 @@ mod tests {
             swaps_per_pixel: 16.0,
             image: None,
             octahedral: true,
+            spatial_filter: stbn_gen::filter_adapted::SpatialFilter::DEFAULT,
+            temporal_filter: stbn_gen::filter_adapted::TemporalFilter::DEFAULT,
+            filter_combination: stbn_gen::filter_adapted::FilterCombination::Product,
+            space: None,
             encoding: Encoding::Unorm16,
             compression,
         }

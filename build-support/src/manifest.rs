@@ -16,6 +16,20 @@
 //!             compression: Lz4,       // optional: None (default) | Lz4 | Deflate
 //!         ),
 //!         (
+//!             name: "taa_blur",
+//!             kind: FilterAdapted,    // optimised for the filter that consumes it (EA's FAST)
+//!             size: (128, 128, 64),
+//!             seed: 3,
+//!             // optional: Gaussian(σ px) | Box(size) | Binomial(order)
+//!             spatial_filter: Gaussian(1.3435),
+//!             // optional: Exponential(α) | ExponentialHistory(α, β) | Gaussian(σ) | Box(frames)
+//!             temporal_filter: Exponential(0.1),
+//!             filter_combination: Product, // optional: Product | Separate(spatial weight)
+//!             space: Vec2,            // optional: a vector mask of this vector kind's space
+//!             swaps_per_pixel: 64.0,  // optional, the optimiser's budget
+//!             encoding: Unorm8,
+//!         ),
+//!         (
 //!             name: "sky_dirs",
 //!             kind: EnvironmentMap,   // a vector kind (swap optimiser)
 //!             size: (128, 128, 64),
@@ -31,7 +45,7 @@
 //! ```
 //!
 //! Unknown fields are errors, and so are fields that do not apply to the mask's kind (`density`
-//! on a vector mask, `image` on a scalar one). Optional fields may also be written `Some(…)`.
+//! on a vector mask, `image` on a scalar one, a filter on anything but `FilterAdapted`). Optional fields may also be written `Some(…)`.
 //! Every error names the file, line, column and field ([`ManifestError`]); image files are read
 //! and checked (NaN, infinite, negative or all-zero luminance) while the manifest is parsed.
 
@@ -43,6 +57,9 @@ use ron::error::SpannedError;
 use ron::extensions::Extensions;
 use serde::Deserialize;
 use stbn_gen::baselines::BaselineKind;
+use stbn_gen::filter_adapted::{
+    FilterAdaptedSpec, FilterAdaptedSpecError, FilterCombination, SpatialFilter, TemporalFilter,
+};
 use stbn_gen::{
     EnergyTopology, ImagePdf, MaskSpec, SampleSpace, SpecError, VectorSpec, VectorSpecError,
 };
@@ -97,6 +114,13 @@ pub enum MaskKind {
     /// Directions importance-sampled from a latitude-longitude environment map (field `image`),
     /// pdf per steradian stored in a channel.
     EnvironmentMap,
+    /// Optimised for the filter that will consume it (EA's FAST): fields `spatial_filter`,
+    /// `temporal_filter`, `filter_combination` (default: EA's Gaussian σ 1.3435 × EMA α 0.1
+    /// product, the filter `filtered_error` measures). Scalar by default, with the thresholded
+    /// filtered error as its energy; `space: Vec2` (any vector kind without an image) makes a
+    /// vector mask of that space with the linear (dot product) energy.
+    /// [`stbn_gen::filter_adapted`].
+    FilterAdapted,
 }
 
 /// How a [`MaskKind`] is generated, which decides the fields that apply to it.
@@ -108,6 +132,8 @@ pub enum Method {
     Baseline(BaselineKind),
     /// The swap optimiser over vector values ([`stbn_gen::generate_vector`]).
     Swap,
+    /// The filter-adapted optimiser ([`stbn_gen::filter_adapted`]).
+    FilterAdapted,
 }
 
 impl MaskKind {
@@ -121,6 +147,7 @@ impl MaskKind {
             MaskKind::GoldenRatio2D => Method::Baseline(BaselineKind::GoldenRatio2D),
             MaskKind::RandomShift2D => Method::Baseline(BaselineKind::RandomShift2D),
             MaskKind::TellusimLayered => Method::Baseline(BaselineKind::TellusimLayered),
+            MaskKind::FilterAdapted => Method::FilterAdapted,
             _ => Method::Swap,
         }
     }
@@ -189,6 +216,7 @@ impl MaskKind {
             MaskKind::EnvironmentMap => {
                 "spatiotemporal blue-noise directions importance-sampled from an environment map"
             }
+            MaskKind::FilterAdapted => "optimised for a spatial and a temporal filter (FAST)",
         }
     }
 }
@@ -242,6 +270,14 @@ pub struct MaskEntry {
     /// 3D unit-vector kinds: store two octahedral channels instead of three signed ones
     /// (default `true`).
     pub octahedral: bool,
+    /// `FilterAdapted`: the spatial filter (default [`SpatialFilter::DEFAULT`]).
+    pub spatial_filter: SpatialFilter,
+    /// `FilterAdapted`: the temporal filter (default [`TemporalFilter::DEFAULT`]).
+    pub temporal_filter: TemporalFilter,
+    /// `FilterAdapted`: how the filters combine (default [`FilterCombination::Product`]).
+    pub filter_combination: FilterCombination,
+    /// `FilterAdapted`: the vector kind whose space the mask holds (`None`: scalar).
+    pub space: Option<MaskKind>,
     /// How values are stored.
     pub encoding: Encoding,
     /// How the payload is compressed (default [`Compression::None`]).
@@ -267,6 +303,24 @@ impl MaskEntry {
             },
             kernel_tolerance: self.kernel_tolerance,
         }
+    }
+
+    /// The filter-adapted optimiser's input and the vector space (`None`: scalar) of
+    /// `FilterAdapted` masks; `None` for other kinds.
+    pub fn filter_adapted_spec(&self) -> Option<(FilterAdaptedSpec, Option<SampleSpace>)> {
+        if self.kind != MaskKind::FilterAdapted {
+            return None;
+        }
+        let space = self.space.and_then(|kind| kind.sample_space(None));
+        let mut spec = FilterAdaptedSpec::new(self.size.0, self.size.1, self.size.2, self.seed)
+            .with_filters(
+                self.spatial_filter,
+                self.temporal_filter,
+                self.filter_combination,
+            )
+            .with_swaps_per_pixel(self.swaps_per_pixel);
+        spec.kernel_tolerance = self.kernel_tolerance;
+        Some((spec, space))
     }
 
     /// The swap optimiser's input for vector kinds; `None` for scalar kinds.
@@ -377,6 +431,55 @@ impl Manifest {
                     ),
                 ));
             }
+            if let Some(space) = entry.space {
+                if space.sample_space(None).is_none() {
+                    return Err(field_error(
+                        "space",
+                        format!(
+                            "{space:?} is not a vector kind without an image; use one of {}",
+                            FILTER_ADAPTED_SPACES
+                        ),
+                    ));
+                }
+            }
+            if entry.kind == MaskKind::FilterAdapted
+                && raw.octahedral.is_some()
+                && !entry.space.is_some_and(MaskKind::is_direction3)
+            {
+                return Err(field_error(
+                    "octahedral",
+                    "applies to FilterAdapted masks only with a 3D unit `space` (UnitVec3, \
+                     UniformHemisphere or CosineHemisphere)"
+                        .to_owned(),
+                ));
+            }
+            if let Some((spec, space)) = entry.filter_adapted_spec() {
+                let validated = match &space {
+                    Some(space) => spec.validate_vector(space),
+                    None => spec.validate(),
+                };
+                if let Err(e) = validated {
+                    let (field, message) = match &e {
+                        FilterAdaptedSpecError::Spec(e) => spec_error_field(e, false),
+                        FilterAdaptedSpecError::Filter { field, message } => {
+                            (*field, message.clone())
+                        }
+                        FilterAdaptedSpecError::InvalidBudget(value) => (
+                            "swaps_per_pixel",
+                            format!(
+                                "must be in 0..={} (got {value})",
+                                FilterAdaptedSpec::MAX_SWAPS_PER_PIXEL
+                            ),
+                        ),
+                        // Every space a manifest names is valid; keep the message if that changes.
+                        FilterAdaptedSpecError::InvalidDims(_) => ("space", e.to_string()),
+                    };
+                    return Err(field_error(field, message));
+                }
+                statics.insert(entry.static_name(), index);
+                masks.push(entry);
+                continue;
+            }
             let validated = match entry.vector_spec() {
                 Some(vector) => vector.validate(),
                 None => entry.spec().validate().map_err(VectorSpecError::Spec),
@@ -446,6 +549,14 @@ struct RawMask {
     image: Option<String>,
     #[serde(default)]
     octahedral: Option<bool>,
+    #[serde(default)]
+    spatial_filter: Option<RawSpatialFilter>,
+    #[serde(default)]
+    temporal_filter: Option<RawTemporalFilter>,
+    #[serde(default)]
+    filter_combination: Option<RawCombination>,
+    #[serde(default)]
+    space: Option<MaskKind>,
     #[serde(with = "EncodingDef")]
     encoding: Encoding,
     #[serde(default = "no_compression", with = "CompressionDef")]
@@ -464,6 +575,10 @@ impl RawMask {
             ("swaps_per_pixel", self.swaps_per_pixel.is_some()),
             ("image", self.image.is_some()),
             ("octahedral", self.octahedral.is_some()),
+            ("spatial_filter", self.spatial_filter.is_some()),
+            ("temporal_filter", self.temporal_filter.is_some()),
+            ("filter_combination", self.filter_combination.is_some()),
+            ("space", self.space.is_some()),
         ]
         .into_iter()
         .filter_map(|(field, written)| written.then_some(field))
@@ -478,6 +593,10 @@ impl RawMask {
         };
         let sigma = self.sigma.unwrap_or(default_sigma);
         let vector_defaults = VectorSpec::new(1, 1, 1, 0, SampleSpace::Vec { dims: 1 });
+        let default_swaps = match self.kind {
+            MaskKind::FilterAdapted => FilterAdaptedSpec::DEFAULT_SWAPS_PER_PIXEL,
+            _ => vector_defaults.swaps_per_pixel,
+        };
         MaskEntry {
             name: self.name.clone(),
             kind: self.kind,
@@ -490,11 +609,19 @@ impl RawMask {
                 .kernel_tolerance
                 .unwrap_or(MaskSpec::DEFAULT_KERNEL_TOLERANCE),
             sigma_value: self.sigma_value.unwrap_or(vector_defaults.sigma_value),
-            swaps_per_pixel: self
-                .swaps_per_pixel
-                .unwrap_or(vector_defaults.swaps_per_pixel),
+            swaps_per_pixel: self.swaps_per_pixel.unwrap_or(default_swaps),
             image: None,
             octahedral: self.octahedral.unwrap_or(true),
+            spatial_filter: self
+                .spatial_filter
+                .map_or(SpatialFilter::DEFAULT, RawSpatialFilter::resolve),
+            temporal_filter: self
+                .temporal_filter
+                .map_or(TemporalFilter::DEFAULT, RawTemporalFilter::resolve),
+            filter_combination: self
+                .filter_combination
+                .map_or(FilterCombination::Product, RawCombination::resolve),
+            space: self.space,
             encoding: self.encoding,
             compression: self.compression,
         }
@@ -503,6 +630,72 @@ impl RawMask {
 
 fn no_compression() -> Compression {
     Compression::None
+}
+
+/// The values `space` takes, for messages.
+const FILTER_ADAPTED_SPACES: &str = "`Vec1`, `Vec2`, `Vec3`, `Vec4`, `UnitVec1`, `UnitVec2`, \
+     `UnitVec3`, `UniformHemisphere`, `CosineHemisphere`";
+
+/// `spatial_filter` as written: `Gaussian(σ)`, `Box(size)` or `Binomial(order)`.
+#[derive(Clone, Copy, Deserialize)]
+#[serde(rename = "SpatialFilter")]
+enum RawSpatialFilter {
+    Gaussian(f64),
+    Box(u32),
+    Binomial(u32),
+}
+
+impl RawSpatialFilter {
+    fn resolve(self) -> SpatialFilter {
+        match self {
+            RawSpatialFilter::Gaussian(sigma) => SpatialFilter::Gaussian { sigma },
+            RawSpatialFilter::Box(size) => SpatialFilter::Box { size },
+            RawSpatialFilter::Binomial(order) => SpatialFilter::Binomial { order },
+        }
+    }
+}
+
+/// `temporal_filter` as written: `Gaussian(σ)`, `Box(frames)`, `Exponential(α)` or
+/// `ExponentialHistory(α, β)`.
+#[derive(Clone, Copy, Deserialize)]
+#[serde(rename = "TemporalFilter")]
+enum RawTemporalFilter {
+    Gaussian(f64),
+    Box(u32),
+    Exponential(f64),
+    ExponentialHistory(f64, f64),
+}
+
+impl RawTemporalFilter {
+    fn resolve(self) -> TemporalFilter {
+        match self {
+            RawTemporalFilter::Gaussian(sigma) => TemporalFilter::Gaussian { sigma },
+            RawTemporalFilter::Box(size) => TemporalFilter::Box { size },
+            RawTemporalFilter::Exponential(alpha) => TemporalFilter::Exponential { alpha },
+            RawTemporalFilter::ExponentialHistory(alpha, beta) => {
+                TemporalFilter::ExponentialHistory { alpha, beta }
+            }
+        }
+    }
+}
+
+/// `filter_combination` as written: `Product` or `Separate(spatial_weight)`.
+#[derive(Clone, Copy, Deserialize)]
+#[serde(rename = "FilterCombination")]
+enum RawCombination {
+    Product,
+    Separate(f64),
+}
+
+impl RawCombination {
+    fn resolve(self) -> FilterCombination {
+        match self {
+            RawCombination::Product => FilterCombination::Product,
+            RawCombination::Separate(spatial_weight) => {
+                FilterCombination::Separate { spatial_weight }
+            }
+        }
+    }
 }
 
 /// Whether the optional `field` applies to masks of `kind`.
@@ -519,6 +712,11 @@ fn applies(kind: MaskKind, field: &str) -> bool {
         (Method::Swap, "sigma" | "sigma_value" | "swaps_per_pixel" | "kernel_tolerance") => true,
         (Method::Swap, "image") => kind.needs_image(),
         (Method::Swap, "octahedral") => kind.is_direction3(),
+        (
+            Method::FilterAdapted,
+            "spatial_filter" | "temporal_filter" | "filter_combination" | "space"
+            | "swaps_per_pixel" | "kernel_tolerance" | "octahedral",
+        ) => true,
         _ => false,
     }
 }
@@ -526,15 +724,21 @@ fn applies(kind: MaskKind, field: &str) -> bool {
 /// The kinds an optional field applies to, for error messages.
 fn applies_to(field: &str) -> &'static str {
     match field {
-        "sigma" => "every kind but White",
+        "sigma" => "every kind but White and FilterAdapted",
         "sigma_time" => "Scalar, Blue2D and Blue3D",
         "density" => "Scalar, Blue2D, Blue3D, GoldenRatio2D, RandomShift2D and TellusimLayered",
         "kernel_tolerance" => {
-            "Scalar, Blue2D, Blue3D, GoldenRatio2D, RandomShift2D and the vector kinds"
+            "Scalar, Blue2D, Blue3D, GoldenRatio2D, RandomShift2D, the vector kinds and \
+             FilterAdapted"
         }
-        "sigma_value" | "swaps_per_pixel" => "the vector kinds (Vec1 … EnvironmentMap)",
+        "sigma_value" => "the vector kinds (Vec1 … EnvironmentMap)",
+        "swaps_per_pixel" => "the vector kinds (Vec1 … EnvironmentMap) and FilterAdapted",
         "image" => "ImagePoints and EnvironmentMap",
-        "octahedral" => "UnitVec3, UniformHemisphere, CosineHemisphere and EnvironmentMap",
+        "octahedral" => {
+            "UnitVec3, UniformHemisphere, CosineHemisphere, EnvironmentMap and FilterAdapted \
+             with such a `space`"
+        }
+        "spatial_filter" | "temporal_filter" | "filter_combination" | "space" => "FilterAdapted",
         _ => "no kind",
     }
 }
@@ -743,8 +947,15 @@ fn enum_variants(field: &str) -> Option<&'static str> {
         "kind" => Some(
             "`Scalar`, `Blue2D`, `Blue3D`, `White`, `GoldenRatio2D`, `RandomShift2D`, \
              `TellusimLayered`, `Vec1`, `Vec2`, `Vec3`, `Vec4`, `UnitVec1`, `UnitVec2`, \
-             `UnitVec3`, `UniformHemisphere`, `CosineHemisphere`, `ImagePoints`, `EnvironmentMap`",
+             `UnitVec3`, `UniformHemisphere`, `CosineHemisphere`, `ImagePoints`, `EnvironmentMap`, \
+             `FilterAdapted`",
         ),
+        "space" => Some(FILTER_ADAPTED_SPACES),
+        "spatial_filter" => Some("`Gaussian(σ)`, `Box(size)`, `Binomial(order)`"),
+        "temporal_filter" => {
+            Some("`Exponential(α)`, `ExponentialHistory(α, β)`, `Gaussian(σ)`, `Box(frames)`")
+        }
+        "filter_combination" => Some("`Product`, `Separate(spatial_weight)`"),
         "encoding" => Some("`Unorm8`, `Unorm16`, `F32`"),
         "compression" => Some("`None`, `Lz4`, `Deflate`"),
         _ => None,
@@ -855,6 +1066,51 @@ mod tests {
             e.message(),
             "height (second element) is 70000; it must be in 1..=65536"
         );
+    }
+
+    #[test]
+    fn filter_adapted_fields_resolve_and_default() {
+        let text = manifest("").replace("kind: Scalar", "kind: FilterAdapted");
+        let entry = Manifest::parse(&text, "m.ron").unwrap().masks()[0].clone();
+        let (spec, space) = entry.filter_adapted_spec().unwrap();
+        assert_eq!(spec, FilterAdaptedSpec::new(8, 8, 4, 1));
+        assert_eq!(space, None);
+        assert!(entry.vector_spec().is_none());
+        let fields = "            spatial_filter: Binomial(2),\n\
+                      \x20           temporal_filter: ExponentialHistory(0.2, 0.05),\n\
+                      \x20           filter_combination: Separate(0.25),\n\
+                      \x20           space: UnitVec3,\n\
+                      \x20           octahedral: false,\n\
+                      \x20           swaps_per_pixel: 3.5,\n\
+                      \x20           kernel_tolerance: 1e-2,\n";
+        let text = manifest(fields).replace("kind: Scalar", "kind: FilterAdapted");
+        let entry = Manifest::parse(&text, "m.ron").unwrap().masks()[0].clone();
+        let (spec, space) = entry.filter_adapted_spec().unwrap();
+        assert_eq!(spec.spatial_filter, SpatialFilter::Binomial { order: 2 });
+        assert_eq!(
+            spec.temporal_filter,
+            TemporalFilter::ExponentialHistory {
+                alpha: 0.2,
+                beta: 0.05
+            }
+        );
+        assert_eq!(
+            spec.combination,
+            FilterCombination::Separate {
+                spatial_weight: 0.25
+            }
+        );
+        assert_eq!((spec.swaps_per_pixel, spec.kernel_tolerance), (3.5, 1e-2));
+        assert_eq!(
+            spec.value_kernel,
+            stbn_gen::filter_adapted::ValueKernel::Distance
+        );
+        assert_eq!(space, Some(SampleSpace::UnitVec3));
+        assert!(!entry.octahedral);
+        // The filter fields belong to FilterAdapted only.
+        let e = Manifest::parse(&manifest("            space: Vec2,\n"), "m.ron").unwrap_err();
+        assert_eq!((e.field(), e.line()), (Some("space"), 9));
+        assert!(e.message().contains("(it applies to FilterAdapted)"), "{e}");
     }
 
     #[test]

@@ -1,12 +1,18 @@
 //! [`Recipe`]: everything that determines a mask's blob, and how to make it.
 //!
 //! A [`MaskEntry`] names a kind and its parameters; its recipe is the generator input
-//! ([`MaskSpec`] or [`VectorSpec`]), the baseline or topology that consumes it, and for vector
-//! masks the blob layout. The cache keys blobs by the recipe's canonical description; the
-//! encoder and the CLI generate from it.
+//! ([`MaskSpec`], [`VectorSpec`] or [`FilterAdaptedSpec`]), the baseline or topology that
+//! consumes it, and for vector masks the blob layout. The cache keys blobs by the recipe's
+//! canonical description; the encoder and the CLI generate from it.
 
 use stbn_gen::baselines::{self, BaselineKind};
-use stbn_gen::{EnergyTrace, MaskSpec, VectorSpec, VectorSpecError, VectorVolume, Volume};
+use stbn_gen::filter_adapted::{
+    FilterAdaptedSpec, FilterAdaptedSpecError, FilterAdaptedVectorVolume, generate_filter_adapted,
+    generate_filter_adapted_vector,
+};
+use stbn_gen::{
+    EnergyTrace, MaskSpec, SampleSpace, VectorSpec, VectorSpecError, VectorVolume, Volume,
+};
 use stbn_runtime::{Compression, Encoding};
 
 use crate::encode::{Layout, encode_vector, encode_volume};
@@ -29,6 +35,54 @@ pub enum Recipe {
         /// BLAKE3 of the image file of image spaces.
         image_hash: Option<blake3::Hash>,
     },
+    /// The filter-adapted optimiser.
+    FilterAdapted(FilterAdaptedRecipe),
+}
+
+/// A validated filter-adapted recipe: a [`FilterAdaptedSpec`], the vector space (`None`:
+/// scalar) and the blob layout. Built only by [`FilterAdaptedRecipe::new`], so generating it
+/// cannot fail.
+#[derive(Clone, Debug)]
+pub struct FilterAdaptedRecipe {
+    spec: FilterAdaptedSpec,
+    space: Option<SampleSpace>,
+    layout: Layout,
+}
+
+impl FilterAdaptedRecipe {
+    /// Checks `spec` for a scalar mask (`space` `None`) or a vector mask of `space` (3D unit
+    /// spaces stored octahedrally when `octahedral`).
+    ///
+    /// # Errors
+    /// The spec's [`FilterAdaptedSpecError`].
+    pub fn new(
+        spec: FilterAdaptedSpec,
+        space: Option<SampleSpace>,
+        octahedral: bool,
+    ) -> Result<FilterAdaptedRecipe, FilterAdaptedSpecError> {
+        match &space {
+            Some(space) => spec.validate_vector(space)?,
+            None => spec.validate()?,
+        }
+        let layout = space
+            .as_ref()
+            .map_or(Layout::SCALAR, |space| Layout::new(space, octahedral));
+        Ok(FilterAdaptedRecipe {
+            spec,
+            space,
+            layout,
+        })
+    }
+
+    /// The optimiser's input.
+    pub fn spec(&self) -> &FilterAdaptedSpec {
+        &self.spec
+    }
+
+    /// The vector space, `None` for a scalar mask.
+    pub fn space(&self) -> Option<&SampleSpace> {
+        self.space.as_ref()
+    }
 }
 
 /// A generated mask before encoding.
@@ -40,6 +94,13 @@ pub enum Generated {
     Vector {
         /// The values (and pdfs).
         volume: VectorVolume,
+        /// Energy after each optimiser pass.
+        trace: EnergyTrace,
+    },
+    /// A filter-adapted vector mask and the optimiser's energy trace.
+    FilterAdaptedVector {
+        /// The values (and pdfs).
+        volume: FilterAdaptedVectorVolume,
         /// Energy after each optimiser pass.
         trace: EnergyTrace,
     },
@@ -61,6 +122,15 @@ impl MaskEntry {
                     image_hash: self.image.as_ref().map(|image| image.hash),
                 }
             }
+            Method::FilterAdapted => {
+                let (spec, space) = self
+                    .filter_adapted_spec()
+                    .expect("a FilterAdapted entry has a filter-adapted spec");
+                Recipe::FilterAdapted(
+                    FilterAdaptedRecipe::new(spec, space, self.octahedral)
+                        .expect("a parsed entry's spec is valid"),
+                )
+            }
         }
     }
 }
@@ -81,6 +151,18 @@ impl Recipe {
                 let (volume, trace) = stbn_gen::generate_vector(spec)?;
                 Generated::Vector { volume, trace }
             }
+            Recipe::FilterAdapted(recipe) => {
+                let valid = "FilterAdaptedRecipe::new checked the spec";
+                match &recipe.space {
+                    None => Generated::Scalar(generate_filter_adapted(&recipe.spec).expect(valid)),
+                    Some(space) => {
+                        let (volume, trace) =
+                            generate_filter_adapted_vector(&recipe.spec, space, &mut |_| {})
+                                .expect(valid);
+                        Generated::FilterAdaptedVector { volume, trace }
+                    }
+                }
+            }
         })
     }
 
@@ -99,6 +181,9 @@ impl Recipe {
             Generated::Vector { volume, .. } => {
                 encode_vector(volume, self.layout(), encoding, compression)
             }
+            Generated::FilterAdaptedVector { volume, .. } => {
+                encode_vector(volume, self.layout(), encoding, compression)
+            }
         };
         Ok((generated, blob))
     }
@@ -110,6 +195,9 @@ impl Recipe {
                 (spec.width, spec.height, spec.depth)
             }
             Recipe::Vector { spec, .. } => (spec.width, spec.height, spec.depth),
+            Recipe::FilterAdapted(recipe) => {
+                (recipe.spec.width, recipe.spec.height, recipe.spec.depth)
+            }
         }
     }
 
@@ -117,6 +205,7 @@ impl Recipe {
     pub fn layout(&self) -> Layout {
         match self {
             Recipe::Vector { layout, .. } => *layout,
+            Recipe::FilterAdapted(recipe) => recipe.layout,
             _ => Layout::SCALAR,
         }
     }
@@ -151,8 +240,62 @@ impl Recipe {
                 layout.channels,
                 image_hash.map_or_else(|| "none".to_owned(), |h| h.to_hex().to_string()),
             ),
+            Recipe::FilterAdapted(recipe) => filter_adapted(recipe),
         }
     }
+}
+
+/// The canonical description of a filter-adapted recipe: every spec field, floats as bits.
+fn filter_adapted(recipe: &FilterAdaptedRecipe) -> String {
+    use stbn_gen::filter_adapted::{FilterCombination, SpatialFilter, TemporalFilter};
+    let FilterAdaptedSpec {
+        width,
+        height,
+        depth,
+        seed,
+        spatial_filter,
+        temporal_filter,
+        combination,
+        value_kernel,
+        swaps_per_pixel,
+        kernel_tolerance,
+        initial_arrangement,
+    } = &recipe.spec;
+    let bits = |v: f64| format!("{:016x}", v.to_bits());
+    let spatial = match *spatial_filter {
+        SpatialFilter::Gaussian { sigma } => format!("gaussian/{}", bits(sigma)),
+        SpatialFilter::Box { size } => format!("box/{size}"),
+        SpatialFilter::Binomial { order } => format!("binomial/{order}"),
+    };
+    let temporal = match *temporal_filter {
+        TemporalFilter::Gaussian { sigma } => format!("gaussian/{}", bits(sigma)),
+        TemporalFilter::Box { size } => format!("box/{size}"),
+        TemporalFilter::Exponential { alpha } => format!("exponential/{}", bits(alpha)),
+        TemporalFilter::ExponentialHistory { alpha, beta } => {
+            format!("exponential_history/{}/{}", bits(alpha), bits(beta))
+        }
+    };
+    let combination = match *combination {
+        FilterCombination::Product => "product".to_owned(),
+        FilterCombination::Separate { spatial_weight } => {
+            format!("separate/{}", bits(spatial_weight))
+        }
+    };
+    let layout = recipe.layout;
+    format!(
+        "method=filter_adapted\nspace={}\nwidth={width}\nheight={height}\ndepth={depth}\n\
+         seed={seed}\nspatial_filter={spatial}\ntemporal_filter={temporal}\n\
+         filter_combination={combination}\nvalue_kernel={}\nswaps_per_pixel={}\n\
+         kernel_tolerance={}\ninitial_arrangement={}\nlayout={:?}/{:?}/{}\n",
+        recipe.space.as_ref().map_or("scalar", SampleSpace::name),
+        value_kernel.name(),
+        bits(*swaps_per_pixel),
+        bits(*kernel_tolerance),
+        initial_arrangement.name(),
+        layout.space,
+        layout.value_map,
+        layout.channels,
+    )
 }
 
 /// The scalar spec's lines of a canonical description.

@@ -17,6 +17,7 @@ pub mod analysis;
 pub mod baselines;
 pub mod export;
 mod extremum;
+pub mod filter_adapted;
 pub mod importance;
 pub mod kernel;
 pub mod space;
@@ -28,6 +29,11 @@ pub mod void_cluster;
 pub mod volume;
 
 pub use baselines::{BaselineKind, generate_baseline};
+pub use filter_adapted::{
+    FilterAdaptedSpec, FilterAdaptedSpecError, FilterAdaptedVectorVolume, FilterCombination,
+    SpatialFilter, TemporalFilter, ValueKernel, VectorData, generate_filter_adapted,
+    generate_filter_adapted_vector, generate_filter_adapted_with_trace,
+};
 pub use importance::{ImageError, ImagePdf};
 pub use kernel::EnergyKernel;
 pub use space::SampleSpace;

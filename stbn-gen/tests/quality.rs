@@ -300,12 +300,14 @@ fn vec2_pairs_integrate_2d_functions_better_than_white_pairs() {
         ((1.0 / g) * w as f64) as usize,
         ((1.0 / (g * g)) * h as f64) as usize,
     );
-    let offset_pair = |values: Vec<f64>| -> (Vec<f64>, Vec<f64>) {
+    /// Two coordinate fields' values.
+    type Pair = (Vec<f64>, Vec<f64>);
+    let offset_pair = |values: Vec<f64>| -> Pair {
         let shifted = toroidal_shift(&Field::new(w, h, d, &values).unwrap(), ox, oy);
         (values, shifted)
     };
     let scalar = |topology| mask(w as u32, h as u32, d as u32, topology);
-    let pairs: Vec<(&str, (Vec<f64>, Vec<f64>))> = vec![
+    let pairs: Vec<(&str, Pair)> = vec![
         (
             "white pairs",
             (white_noise(w, h, d, 1), white_noise(w, h, d, 2)),
@@ -328,9 +330,7 @@ fn vec2_pairs_integrate_2d_functions_better_than_white_pairs() {
             Field::new(w, h, d, xs).unwrap(),
             Field::new(w, h, d, ys).unwrap(),
         );
-        let error =
-            filtered_error_vector(&[xs.clone(), ys.clone()], FilteredErrorOptions::default())
-                .unwrap();
+        let error = filtered_error_vector(&[xs, ys], FilteredErrorOptions::default()).unwrap();
         filtered.push(error[d - 1]);
         println!(
             "{name}: filtered error (half-spaces) last frame {:.5}",

@@ -2,9 +2,13 @@
 
 use std::path::{Path, PathBuf};
 
+use std::time::Instant;
+
 use stbn_gen::analysis::Field;
 use stbn_gen::baselines::comparison;
 use stbn_gen::export::read_slices_png;
+use stbn_gen::filter_adapted::{FilterAdaptedSpec, generate_filter_adapted};
+use stbn_gen::{MaskSpec, generate};
 
 use crate::Result;
 use crate::report::{self, Row};
@@ -14,7 +18,9 @@ use crate::report::{self, Row};
 /// mask of [`comparison`] (white noise, independent 2D and isotropic 3D blue noise, golden-ratio
 /// and random-shift animated 2D blue noise, Tellusim's layered blue noise; the same masks a
 /// manifest can declare, from that seed) at each distinct size of the analysed masks, as extra
-/// rows named `<baseline>_<w>x<h>x<d>`.
+/// rows named `<baseline>_<w>x<h>x<d>`, followed by the STBN mask (`Scalar`) and the
+/// filter-adapted mask (`FilterAdapted` with its defaults: optimised for the filter the
+/// filtered-error column applies) of that size and seed.
 pub fn run(dirs: &[PathBuf], out: &Path, baseline_seed: Option<u64>) -> Result<()> {
     let mut rows = Vec::with_capacity(dirs.len());
     for dir in dirs {
@@ -46,6 +52,26 @@ pub fn run(dirs: &[PathBuf], out: &Path, baseline_seed: Option<u64>) -> Result<(
                 println!("{}", row.summary());
                 rows.push(row);
             }
+            let (wu, hu, du) = (axis(w)?, axis(h)?, axis(d)?);
+            let start = Instant::now();
+            let stbn = generate(&MaskSpec::new(wu, hu, du, seed))
+                .map_err(|e| format!("STBN at {w}x{h}x{d}: {e}"))?;
+            let stbn_seconds = start.elapsed().as_secs_f64();
+            let start = Instant::now();
+            let adapted = generate_filter_adapted(&FilterAdaptedSpec::new(wu, hu, du, seed))
+                .map_err(|e| format!("filter-adapted mask at {w}x{h}x{d}: {e}"))?;
+            let adapted_seconds = start.elapsed().as_secs_f64();
+            for (name, kind, seconds, volume) in [
+                ("stbn", "spatiotemporal", stbn_seconds, stbn),
+                ("filter_adapted", "FilterAdapted", adapted_seconds, adapted),
+            ] {
+                let values = volume.values();
+                let field = Field::new(w, h, d, &values).expect("masks are valid fields");
+                let name = format!("{name}_{w}x{h}x{d}");
+                let row = Row::measure(&name, kind, Some(seconds), &field);
+                println!("{}", row.summary());
+                rows.push(row);
+            }
         }
         intro.push_str(&format!(
             " Baselines (seed {seed}) at the same sizes, generated as masks with exactly uniform \
@@ -55,7 +81,16 @@ pub fn run(dirs: &[PathBuf], out: &Path, baseline_seed: Option<u64>) -> Result<(
              grid; `random_shift_2d`, the same frame shifted by a random offset per frame, \
              fract(v + r_frame); `tellusim_layered`, Tellusim's layered void-and-cluster (each \
              frame seeded from the previous one flipped in x and y, kernel exp(−d²/σ²) + \
-             0.01/(1 + d²), σ = 1.6)."
+             0.01/(1 + d²), σ = 1.6). For reference, the masks a manifest's `Scalar` and \
+             `FilterAdapted` kinds make with their defaults: `stbn`, spatiotemporal blue noise \
+             (void-and-cluster, Gaussian σ 1.9 within frames and along each pixel's frames); \
+             `filter_adapted`, the same mask then optimised ({} swaps per pixel) for the \
+             product of the Gaussian σ 1.3435 blur and the EMA α 0.1 that the filtered-error \
+             column applies (EA's FAST), wrapped around the mask's frames: with dozens of frames \
+             it leads that column, trading some of STBN's low-band blue-ness for it (with a \
+             handful, the column's EMA start at frame 0, which the wrapped filter does not \
+             model, dominates and STBN can stay ahead).",
+            FilterAdaptedSpec::DEFAULT_SWAPS_PER_PIXEL
         ));
     }
     let path = report::write(out, &intro, &rows)?;
@@ -107,7 +142,9 @@ mod tests {
                 "blue_3d_16x16x8",
                 "golden_ratio_2d_16x16x8",
                 "random_shift_2d_16x16x8",
-                "tellusim_layered_16x16x8"
+                "tellusim_layered_16x16x8",
+                "stbn_16x16x8",
+                "filter_adapted_16x16x8"
             ],
             "{text}"
         );

@@ -56,15 +56,18 @@ pub fn run(manifest: &Path, out: &Path, format: OutputFormat) -> Result<()> {
                 ys: vector::channel_values(&mask, 1),
             });
         }
-        let kind = match entry.kind.method() {
-            Method::VoidAndCluster(topology) => topology.name().to_owned(),
+        let kind = match (entry.kind.method(), entry.space) {
+            (Method::VoidAndCluster(topology), _) => topology.name().to_owned(),
+            (Method::FilterAdapted, Some(space)) => format!("{:?}({space:?})", entry.kind),
             _ => format!("{:?}", entry.kind),
         };
         // Scalar masks are measured on their generated values; vector masks on their first
         // stored component (the report's figures are per scalar field).
         let values = match &generated {
             Generated::Scalar(volume) => volume.values(),
-            Generated::Vector { .. } => vector::channel_values(&mask, 0),
+            Generated::Vector { .. } | Generated::FilterAdaptedVector { .. } => {
+                vector::channel_values(&mask, 0)
+            }
         };
         let field = Field::new(w as usize, h as usize, d as usize, &values)
             .expect("a mask's values are a field");
@@ -77,7 +80,10 @@ pub fn run(manifest: &Path, out: &Path, format: OutputFormat) -> Result<()> {
                 };
                 write_slices_png(&field, out, &entry.name, depth)?;
             }
-            (OutputFormat::Png, Generated::Vector { trace, .. }) => {
+            (
+                OutputFormat::Png,
+                Generated::Vector { trace, .. } | Generated::FilterAdaptedVector { trace, .. },
+            ) => {
                 let folder = out.join(&entry.name);
                 vector::write_png_slices(&mask, &folder, &entry.name)
                     .map_err(|e| mask_error(&e))?;
@@ -90,7 +96,9 @@ pub fn run(manifest: &Path, out: &Path, format: OutputFormat) -> Result<()> {
                 fs::create_dir_all(out).map_err(|e| format!("creating {}: {e}", out.display()))?;
                 let path = out.join(format!("{}.ktx2", entry.name));
                 fs::write(&path, file).map_err(|e| format!("writing {}: {e}", path.display()))?;
-                if let Generated::Vector { trace, .. } = &generated {
+                if let Generated::Vector { trace, .. }
+                | Generated::FilterAdaptedVector { trace, .. } = &generated
+                {
                     vector::write_sidecar(&mask, entry, trace, out).map_err(|e| mask_error(&e))?;
                     vector::write_trace(trace, out, &entry.name).map_err(|e| mask_error(&e))?;
                 }
@@ -123,11 +131,56 @@ pub fn run(manifest: &Path, out: &Path, format: OutputFormat) -> Result<()> {
     Ok(())
 }
 
-/// Generates and encodes `entry`, with a progress bar for void-and-cluster masks (the others
-/// show a spinner).
+/// Generates and encodes `entry`, with a progress bar for void-and-cluster masks (pixels
+/// ranked) and filter-adapted ones (passes done); the others show a spinner.
 fn make(entry: &MaskEntry) -> Result<(Generated, Vec<u8>)> {
     let recipe = entry.recipe();
     let error = |e: &dyn std::fmt::Display| format!("mask {:?}: {e}", entry.name);
+    if let Some((spec, space)) = entry.filter_adapted_spec() {
+        let bar = ProgressBar::new(spec.swaps_per_pixel.ceil() as u64)
+            .with_style(
+                ProgressStyle::with_template(
+                    "{prefix} [{bar:40}] pass {pos}/{len} {elapsed_precise}, {eta} left",
+                )
+                .expect("the template is valid")
+                .progress_chars("=> "),
+            )
+            .with_prefix(entry.name.clone());
+        let mut progress =
+            |p: stbn_gen::filter_adapted::FilterAdaptedProgress| bar.set_position(p.passes_done);
+        let generated = match &space {
+            None => Generated::Scalar(
+                stbn_gen::filter_adapted::generate_filter_adapted_with_trace(&spec, &mut progress)
+                    .map_err(|e| error(&e))?
+                    .0,
+            ),
+            Some(space) => {
+                let (volume, trace) = stbn_gen::filter_adapted::generate_filter_adapted_vector(
+                    &spec,
+                    space,
+                    &mut progress,
+                )
+                .map_err(|e| error(&e))?;
+                Generated::FilterAdaptedVector { volume, trace }
+            }
+        };
+        bar.finish_and_clear();
+        let blob = match &generated {
+            Generated::Scalar(volume) => {
+                stbn_build_support::encode::encode_volume(volume, entry.encoding, entry.compression)
+            }
+            Generated::Vector { .. } => unreachable!("filter-adapted masks"),
+            Generated::FilterAdaptedVector { volume, .. } => {
+                stbn_build_support::encode::encode_vector(
+                    volume,
+                    recipe.layout(),
+                    entry.encoding,
+                    entry.compression,
+                )
+            }
+        };
+        return Ok((generated, blob));
+    }
     if let Method::VoidAndCluster(_) = entry.kind.method() {
         let spec = entry.spec();
         let bar = ProgressBar::new(spec.pixels())

@@ -57,7 +57,8 @@ enum Command {
         out: PathBuf,
         /// Also measure six baselines generated from this seed at each mask size, side by side:
         /// white noise, independent 2D and isotropic 3D blue noise, golden-ratio and random-shift
-        /// animated 2D blue noise, and Tellusim's layered masks.
+        /// animated 2D blue noise, and Tellusim's layered masks; then the STBN (`Scalar`) and
+        /// filter-adapted (`FilterAdapted`) masks of that size and seed for reference.
         #[arg(long, value_name = "SEED")]
         baselines: Option<u64>,
     },

@@ -80,9 +80,8 @@ pub fn section(masks: &[PointMask]) -> Result<String> {
         let _ = writeln!(md, "{header}\n{rule}");
         for (label, (xs, ys)) in rows {
             let (xs, ys) = (field(mask, xs)?, field(mask, ys)?);
-            let filtered =
-                filtered_error_vector(&[xs.clone(), ys.clone()], FilteredErrorOptions::default())
-                    .map_err(|e| format!("{}: {e}", mask.name))?;
+            let filtered = filtered_error_vector(&[xs, ys], FilteredErrorOptions::default())
+                .map_err(|e| format!("{}: {e}", mask.name))?;
             let _ = write!(md, "| {label} | {:.5} |", filtered[d - 1]);
             for integrand in Integrand2D::ALL {
                 let curve = convergence_2d(&xs, &ys, integrand, ConvergenceOptions::new(d))

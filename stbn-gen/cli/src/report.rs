@@ -390,8 +390,9 @@ fn markdown(intro: &str, rows: &[Row]) -> String {
 Columns:\n\n\
 - **size**: width × height × frames (pixels, pixels, frames).\n\
 - **kind**: the energy a generated mask was made with (`spatiotemporal`: blue in space and over \
-time; `independent2d`: an independent 2D blue-noise mask per frame; `isotropic3d`: 3D blue noise), \
-`png N-bit` for analysed slice files, or `baseline …` for a comparison field.\n\
+time; `independent2d`: an independent 2D blue-noise mask per frame; `isotropic3d`: 3D blue noise; \
+`FilterAdapted`: optimised for a spatial and a temporal filter, by default the ones the filtered \
+error applies), `png N-bit` for analysed slice files, or `baseline …` for a comparison field.\n\
 - **seconds**: wall-clock generation time (n/a for analysed files).\n\
 - **spatial low band**: each frame's 2D power spectrum with the mean removed, divided by what \
 white noise of the same variance would have, averaged over the low frequencies 0 < |ν| ≤ 1/8 \

@@ -5,7 +5,7 @@
 //! of a 2D vector mask, or one scalar mask read twice at different offsets (as a renderer that
 //! needs two numbers per pixel would, see [`toroidal_shift`]), or two independent masks. Pixel
 //! `p` at sample `k` reads frame `zₖ = (start + k) mod depth` of both, and the estimators and the
-//! RMSE are those of [`super::convergence`]: a Monte Carlo running mean and an EMA, the
+//! RMSE are those of [`super::convergence()`]: a Monte Carlo running mean and an EMA, the
 //! root-mean-square error over the `W·H` pixels after each sample, in the units of `f`
 //! (dimensionless here).
 //!

@@ -435,7 +435,7 @@ mod tests {
         // pair (all pixels on one side of every hyperplane... or split by index ties) is finite.
         let other: Vec<f64> = values.iter().rev().copied().collect();
         let second = Field::new(w, h, d, &other).unwrap();
-        let pair = filtered_error_vector(&[field.clone(), second], options).unwrap();
+        let pair = filtered_error_vector(&[field, second], options).unwrap();
         assert_eq!(pair.len(), d);
         assert!(pair.iter().all(|e| e.is_finite() && *e > 0.0), "{pair:?}");
     }

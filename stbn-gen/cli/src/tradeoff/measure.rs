@@ -34,7 +34,7 @@ pub struct Quality {
     pub temporal: Option<f64>,
     /// [`filtered_error`] (EA's FAST, default options) of the last frame.
     pub filtered_last: f64,
-    /// Monte Carlo RMSE over pixels of ∫₀¹ [x < ½] dx after each of [`RMSE_AT`] samples (one
+    /// Monte Carlo RMSE over pixels of ∫₀¹ step(x) dx (step = 1 where x < ½) after each of [`RMSE_AT`] samples (one
     /// per frame from frame 0, wrapping after the last frame).
     pub mc_step: [f64; 3],
     /// The EMA (α = 0.1) RMSE of the same integral after 64 samples.

@@ -1,0 +1,1024 @@
+//! The greedy swap optimiser of filter-adapted masks: exact integer energies and deltas, tiles
+//! coloured 2 × 2 for deterministic parallel passes.
+//!
+//! # Energies
+//!
+//! Every pixel `x` holds a value and the kernel gives integer pair weights `g`; the energy is a
+//! sum over ordered pairs `x ≠ y` of `g(x − y) · K(x, y)`, with one of two value kernels:
+//!
+//! - **Distance**: `K = −Σ_c |v_c(x) − v_c(y)|` with `v_c` the integer level (below 2¹⁴) of
+//!   channel `c`: a scalar's rank, or a vector's projection ranks ([`super`]). Per channel,
+//!   swapping the values `a = v(p)` and `b = v(q)` of two pixels of one frame changes the energy
+//!   by exactly
+//!
+//!   ```text
+//!   ΔE = 4 (s · Σ_r (g(p − r) − g(q − r)) · clamp(v(r) − lo, 0, len) + (g(0) − g(p − q)) · len)
+//!   ```
+//!
+//!   with `lo = min(a, b)`, `len = |a − b|`, `s = sign(b − a)` and `r` over both footprints, the
+//!   two pixels included (derived from `|a − v| − |b − v| = 2 clamp(v − lo, 0, len) − len` and
+//!   `Σ_r g(p − r) = Σ_r g(q − r)`); a swap's delta is the sum over channels. Only neighbours
+//!   whose levels lie between `a` and `b` contribute anything but a constant. Each delta scans
+//!   both footprints: levels are kept per pixel column over all frames, so the temporal taps of
+//!   one spatial tap are one contiguous run of `i16`, summed exactly in `i32` (vectorised), then
+//!   multiplied by the spatial weight in `i64`. A proposal is *screened* first: its delta over
+//!   the spatial taps of the 3 × 3 neighbourhood (all frames; about a tenth of the work at the
+//!   default filters) must be below `screen · Σ_c len_c · Σ g`, or the proposal is dropped
+//!   without scanning the rest. The screen only decides which proposals get a full, exact
+//!   evaluation; a swap is kept only when its exact delta is negative.
+//!
+//! - **Product** (any space): `K = u(x)·u(y)`, the dot product of integer vectors. The optimiser
+//!   keeps `φ_c(x) = Σ_y g(x − y) u_c(y)` (the origin included), and
+//!   `ΔE = 2 δ·(φ(p) − φ(q)) + 2 |δ|² (g(0) − g(p − q))` with `δ = u(q) − u(p)`, an `O(dims)`
+//!   evaluation; an accepted swap then adds `g(· − p) δ` to `φ` and subtracts `g(· − q) δ`.
+//!   `φ` is held in `f64`, but the kernel's bound keeps every product and sum an integer below
+//!   2⁵³, where `f64` arithmetic is exact (and vectorises).
+//!
+//! All deltas and energies are exact integers (`i128`), so the running energy equals a
+//! from-scratch recomputation bit for bit after any number of swaps, in any order.
+//!
+//! # Schedule
+//!
+//! A pass proposes, in every frame, one swap per pixel: the frame is cut into tiles (about
+//! 16 pixels wide, never narrower than twice the kernel's spatial reach, at a seeded
+//! random offset per pass), each pixel of a tile proposes a swap with a uniformly drawn other
+//! pixel of its tile, in a seeded random order. A tile covers its columns in every frame. Tiles
+//! are coloured 2 × 2; the tiles of one colour run in parallel, each on private copies of the
+//! values it owns and of what it reads or updates around them (its columns widened by the
+//! reach; copies of same-coloured tiles never overlap, since the tile between them is at least
+//! twice the reach wide), written back after the colour. Each tile draws from its own ChaCha8
+//! stream keyed by (seed, pass, tile). Nothing depends on the number of threads.
+
+use rand::seq::SliceRandom;
+use rand::{Rng, RngExt};
+use rayon::prelude::*;
+
+use super::filters::{Kernel, ScanKernel};
+use crate::swap::keyed_rng;
+
+/// Domain tags of this optimiser's random streams (distinct from the swap optimiser's).
+pub(crate) mod stream {
+    /// Initial arrangement of scalar masks, one stream per frame.
+    pub const INIT: u64 = 0x4641_5354_0001;
+    /// Tile grid offsets of a pass.
+    pub const GRID: u64 = 0x4641_5354_0002;
+    /// Swap proposals of one tile of one pass.
+    pub const TILE: u64 = 0x4641_5354_0003;
+}
+
+/// Spatial taps with `Δx² + Δy² ≤ CORE_RADIUS_SQUARED` (the pixel and its 8 neighbours, times
+/// every temporal tap) form the screening core. Cores of radius √2, 2 and √8 reach the same
+/// filtered error per pass at 128×128×64; the smallest costs the least.
+pub(crate) const CORE_RADIUS_SQUARED: i32 = 2;
+
+/// Most level channels of the distance energy: the 16 projection directions of 4D values.
+pub(crate) const MAX_CHANNELS: usize = 16;
+
+/// The energy's value kernel and its state.
+pub(crate) enum Energy {
+    /// `−Σ_c |a_c − b_c|` of integer levels.
+    Distance {
+        kernel: ScanKernel,
+        /// Level channels per value, `1..=`[`MAX_CHANNELS`].
+        dims: usize,
+        /// The levels (`< 2¹⁴`) of each value, index `((z · slice) + i) · dims + c`.
+        levels: Vec<i16>,
+        /// Per term, the number of leading spatial taps in the screening core.
+        core: Vec<usize>,
+        /// Screening threshold in units of `len · Σ g`; `None` disables screening.
+        screen: Option<f64>,
+    },
+    /// The dot product of integer vectors.
+    Product {
+        kernel: Kernel,
+        dims: usize,
+        /// Integer components, index `((z · slice) + i) · dims + c`.
+        table: Vec<i32>,
+        /// `φ_c(x)`, index `c · pixels + x`: integers, exact in `f64`.
+        phi: Vec<f64>,
+    },
+}
+
+/// Tiles along an axis of `size` pixels: an even count of tiles at least `2 · reach` wide, near
+/// `size / target`; 1 when the axis is too short for two.
+fn tiles_along(size: u32, reach: u32, target: u32) -> u32 {
+    let max_tiles = size / (2 * reach).max(1);
+    let want = (size / target.max(1)).max(2).min(max_tiles);
+    if want >= 2 { want & !1 } else { 1 }
+}
+
+/// One tile of a pass and the region around it that it reads and writes.
+#[derive(Clone, Copy, Debug)]
+struct Tile {
+    /// First column and row of the tile (global) and its size.
+    x0: usize,
+    y0: usize,
+    w: usize,
+    h: usize,
+    /// First column and row of its region (global) and the region's size.
+    rx0: usize,
+    ry0: usize,
+    rw: usize,
+    rh: usize,
+    /// The region spans the whole axis (one tile along it): offsets wrap around it.
+    wrap_x: bool,
+    wrap_y: bool,
+    colour: u8,
+    id: u64,
+}
+
+impl Tile {
+    /// Region coordinates of tile pixel `i` (row-major in the tile).
+    fn local(&self, i: usize, reach: (u32, u32)) -> (usize, usize) {
+        let offx = if self.wrap_x { 0 } else { reach.0 as usize };
+        let offy = if self.wrap_y { 0 } else { reach.1 as usize };
+        (i % self.w + offx, i / self.w + offy)
+    }
+}
+
+/// A rectangle of columns (every frame) of the distance energy's levels: `cols[((c · rh + y) ·
+/// rw + x) · 2·depth + k]` holds component `c` of frame `k mod depth`, so any window of up to
+/// `depth` frames from any start is contiguous.
+pub(crate) struct Columns {
+    cols: Vec<i16>,
+    rw: usize,
+    rh: usize,
+    wrap_x: bool,
+    wrap_y: bool,
+    depth: usize,
+}
+
+impl Columns {
+    #[inline(always)]
+    fn offset(&self, c: usize, (x, y): (usize, usize)) -> usize {
+        ((c * self.rh + y) * self.rw + x) * 2 * self.depth
+    }
+
+    #[inline(always)]
+    fn column(&self, c: usize, x: usize, y: usize) -> &[i16] {
+        let k = self.offset(c, (x, y));
+        &self.cols[k..k + 2 * self.depth]
+    }
+
+    fn set(&mut self, c: usize, at: (usize, usize), z: usize, level: i16) {
+        let k = self.offset(c, at);
+        self.cols[k + z] = level;
+        self.cols[k + z + self.depth] = level;
+    }
+
+    fn get(&self, c: usize, at: (usize, usize), z: usize) -> i16 {
+        self.cols[self.offset(c, at) + z]
+    }
+}
+
+/// `Σ_t T[t] · (clamp(v[t] − lo, 0, len) − half)`, exact in `i32` for `|T| ≤ 2¹⁴`, `ΣT ≤ 2¹⁴` and
+/// levels below 2¹⁴. Written so the compiler vectorises it (`pmaddwd`).
+#[inline(always)]
+fn window_dot(t: &[i16], v: &[i16], lo: i16, len: i16, half: i16) -> i32 {
+    let mut acc = 0i32;
+    for (&a, &b) in t.iter().zip(v) {
+        let c = b.wrapping_sub(lo).max(0).min(len).wrapping_sub(half);
+        acc = acc.wrapping_add(i32::from(a).wrapping_mul(i32::from(c)));
+    }
+    acc
+}
+
+/// `Σ_r g(p − r) · clamp(v_c(r) − lo, 0, len)` over the spatial taps `taps(term)` of every term,
+/// for component `c` of pixel `(px, py)` (region coordinates) of frame `z`.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub(crate) fn scan(
+    kernel: &ScanKernel,
+    columns: &Columns,
+    c: usize,
+    taps: impl Fn(usize) -> std::ops::Range<usize>,
+    z: usize,
+    (px, py): (usize, usize),
+    lo: i16,
+    len: i16,
+) -> i64 {
+    let half = len >> 1;
+    let d = columns.depth as i64;
+    let mut total = 0i64;
+    for (k, term) in kernel.terms.iter().enumerate() {
+        let start = (z as i64 + i64::from(term.t0)).rem_euclid(d) as usize;
+        let window = term.temporal.len();
+        let offset = i64::from(half) * term.temporal_sum;
+        for &(dx, dy, s) in &term.spatial[taps(k)] {
+            let x = px as i64 + i64::from(dx);
+            let y = py as i64 + i64::from(dy);
+            let x = if columns.wrap_x {
+                x.rem_euclid(columns.rw as i64)
+            } else {
+                x
+            } as usize;
+            let y = if columns.wrap_y {
+                y.rem_euclid(columns.rh as i64)
+            } else {
+                y
+            } as usize;
+            let col = &columns.column(c, x, y)[start..start + window];
+            let acc = window_dot(&term.temporal, col, lo, len, half);
+            total += s * (i64::from(acc) + offset);
+        }
+    }
+    total
+}
+
+/// `φ_c(x) += sign · step_c · g(x − p)` for every `x` in the footprint of pixel `p` (region
+/// coordinates) of frame `z`, in a region `rw × rh` of `φ` (layout `((c · depth + z) · rh + y) ·
+/// rw + x`).
+#[allow(clippy::too_many_arguments)]
+fn splat(
+    kernel: &Kernel,
+    phi: &mut [f64],
+    (rw, rh, wrap_x, wrap_y): (usize, usize, bool, bool),
+    z: usize,
+    (px, py): (usize, usize),
+    step: &[i64],
+    sign: f64,
+) {
+    let depth = kernel.depth as usize;
+    let plane = depth * rh * rw;
+    for (c, &s) in step.iter().enumerate() {
+        if s == 0 {
+            continue;
+        }
+        let s = sign * s as f64;
+        for term in &kernel.terms {
+            for &(dz, t) in &term.temporal {
+                let zz = (z as i64 + i64::from(dz)).rem_euclid(depth as i64) as usize;
+                let coef = s * t;
+                let frame = c * plane + zz * rh * rw;
+                for row in &term.rows {
+                    let y = py as i64 + i64::from(row.dy);
+                    let y = if wrap_y { y.rem_euclid(rh as i64) } else { y } as usize;
+                    let line = &mut phi[frame + y * rw..frame + (y + 1) * rw];
+                    let x = px as i64 + i64::from(row.dx0);
+                    let len = row.weights.len();
+                    if !wrap_x {
+                        let x = x as usize;
+                        for (f, &g) in line[x..x + len].iter_mut().zip(&row.weights) {
+                            *f += coef * g;
+                        }
+                    } else {
+                        let x = x.rem_euclid(rw as i64) as usize;
+                        let first = len.min(rw - x);
+                        for (f, &g) in line[x..x + first].iter_mut().zip(&row.weights) {
+                            *f += coef * g;
+                        }
+                        for (f, &g) in line[..len - first].iter_mut().zip(&row.weights[first..]) {
+                            *f += coef * g;
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// A tile's private copies: its value indices (`(z · h + y) · w + x`, tile-local) and the region
+/// state of the energy.
+struct Work {
+    perm: Vec<u32>,
+    region: Region,
+}
+
+enum Region {
+    Distance(Columns),
+    /// `φ` over the region ([`splat`]'s layout).
+    Product(Vec<f64>),
+}
+
+/// Totals of one tile's work.
+#[derive(Default)]
+struct TileResult {
+    attempted: u64,
+    screened: u64,
+    accepted: u64,
+    delta: i128,
+}
+
+/// The optimiser's state ([module docs](self)).
+pub(crate) struct Optimizer {
+    energy_state: Energy,
+    width: usize,
+    height: usize,
+    depth: usize,
+    reach: (u32, u32),
+    /// Per pixel, the index of its value in its frame's values.
+    perm: Vec<u32>,
+    seed: u64,
+    passes: u64,
+    attempted: u64,
+    screened: u64,
+    accepted: u64,
+    /// Energy relative to the start (distance) or absolute (product).
+    energy: i128,
+}
+
+impl Optimizer {
+    /// Preferred tile side in pixels. Tiles of 32 reach the same filtered error per pass at
+    /// 128×128×64 (BENCHMARKS.md).
+    pub const TILE_TARGET: u32 = 16;
+
+    /// An optimiser over `perm` (per pixel, the index of its value in its frame) for `energy`, of
+    /// a `width × height × depth` mask.
+    pub fn new(
+        energy: Energy,
+        (width, height, depth): (u32, u32, u32),
+        perm: Vec<u32>,
+        seed: u64,
+    ) -> Self {
+        let (width, height, depth) = (width as usize, height as usize, depth as usize);
+        assert_eq!(perm.len(), width * height * depth, "one index per pixel");
+        let reach = match &energy {
+            Energy::Distance { kernel, dims, .. } => {
+                assert!((1..=MAX_CHANNELS).contains(dims), "{dims} level channels");
+                kernel.reach
+            }
+            Energy::Product { kernel, .. } => kernel.reach,
+        };
+        let mut optimizer = Optimizer {
+            energy_state: energy,
+            width,
+            height,
+            depth,
+            reach,
+            perm,
+            seed,
+            passes: 0,
+            attempted: 0,
+            screened: 0,
+            accepted: 0,
+            energy: 0,
+        };
+        if let Energy::Product { .. } = optimizer.energy_state {
+            let phi = optimizer.field_from_scratch();
+            optimizer.energy = optimizer.product_energy(&phi);
+            if let Energy::Product { phi: kept, .. } = &mut optimizer.energy_state {
+                *kept = phi;
+            }
+        }
+        optimizer
+    }
+
+    fn slice(&self) -> usize {
+        self.width * self.height
+    }
+
+    fn pixels(&self) -> usize {
+        self.slice() * self.depth
+    }
+
+    /// Per pixel, the index of its value in its frame's values.
+    pub fn perm(&self) -> &[u32] {
+        &self.perm
+    }
+
+    /// Consumes the optimiser, returning [`Optimizer::perm`].
+    pub fn into_perm(self) -> Vec<u32> {
+        self.perm
+    }
+
+    /// The running energy: the product energy, or the distance energy relative to the start;
+    /// every accepted swap adds its exact delta.
+    pub fn energy(&self) -> i128 {
+        self.energy
+    }
+
+    /// Swaps proposed so far.
+    pub fn swaps_attempted(&self) -> u64 {
+        self.attempted
+    }
+
+    /// Proposals that passed the screen (distance) so far; every proposal for the product.
+    pub fn swaps_screened(&self) -> u64 {
+        self.screened
+    }
+
+    /// Swaps kept so far.
+    pub fn swaps_accepted(&self) -> u64 {
+        self.accepted
+    }
+
+    /// `φ` of the current values from scratch (product energy; empty for the distance energy):
+    /// per term, a spatial convolution of each frame, then a temporal one.
+    pub fn field_from_scratch(&self) -> Vec<f64> {
+        let Energy::Product {
+            kernel,
+            dims,
+            table,
+            ..
+        } = &self.energy_state
+        else {
+            return Vec::new();
+        };
+        let (w, h, d, dims) = (self.width, self.height, self.depth, *dims);
+        let slice = self.slice();
+        let pixels = self.pixels();
+        let mut phi = vec![0.0; dims * pixels];
+        for (c, out) in phi.chunks_mut(pixels).enumerate() {
+            let values: Vec<f64> = (0..pixels)
+                .map(|x| f64::from(table[((x / slice) * slice + self.perm[x] as usize) * dims + c]))
+                .collect();
+            for term in &kernel.terms {
+                // ψ_z = S ∗ u_z, circular in x and y.
+                let mut psi = vec![0.0; pixels];
+                psi.par_chunks_mut(slice)
+                    .zip(values.par_chunks(slice))
+                    .for_each(|(dst, src)| {
+                        for row in &term.rows {
+                            for y in 0..h {
+                                let sy =
+                                    (y as i64 + i64::from(row.dy)).rem_euclid(h as i64) as usize;
+                                let src_row = &src[sy * w..(sy + 1) * w];
+                                let dst_row = &mut dst[y * w..(y + 1) * w];
+                                for (i, &s) in row.weights.iter().enumerate() {
+                                    if s == 0.0 {
+                                        continue;
+                                    }
+                                    let dx = (i64::from(row.dx0) + i as i64).rem_euclid(w as i64)
+                                        as usize;
+                                    // dst[x] += s · src[(x + dx) mod w], in two runs.
+                                    let (head, tail) = dst_row.split_at_mut(w - dx);
+                                    for (t, &v) in head.iter_mut().zip(&src_row[dx..]) {
+                                        *t += s * v;
+                                    }
+                                    for (t, &v) in tail.iter_mut().zip(&src_row[..dx]) {
+                                        *t += s * v;
+                                    }
+                                }
+                            }
+                        }
+                    });
+                // φ_z += Σ_Δt T(Δt) ψ_{z+Δt}.
+                out.par_chunks_mut(slice).enumerate().for_each(|(z, dst)| {
+                    for &(dz, t) in &term.temporal {
+                        let sz = (z as i64 + i64::from(dz)).rem_euclid(d as i64) as usize;
+                        for (o, &p) in dst.iter_mut().zip(&psi[sz * slice..(sz + 1) * slice]) {
+                            *o += t * p;
+                        }
+                    }
+                });
+            }
+        }
+        phi
+    }
+
+    /// `Σ_x u(x)·φ(x) − g(0) Σ_x |u(x)|²` for the field `phi` of the current values.
+    fn product_energy(&self, phi: &[f64]) -> i128 {
+        let Energy::Product {
+            kernel,
+            dims,
+            table,
+            ..
+        } = &self.energy_state
+        else {
+            unreachable!("product energy of a product optimiser");
+        };
+        let g0 = i128::from(kernel.same_frame.get(0, 0));
+        let (slice, pixels, dims) = (self.slice(), self.pixels(), *dims);
+        (0..self.depth)
+            .into_par_iter()
+            .map(|z| {
+                let mut sum = 0i128;
+                for x in z * slice..(z + 1) * slice {
+                    for c in 0..dims {
+                        let u = i128::from(table[(z * slice + self.perm[x] as usize) * dims + c]);
+                        sum += u * i128::from(phi[c * pixels + x] as i64) - g0 * u * u;
+                    }
+                }
+                sum
+            })
+            .sum()
+    }
+
+    /// The energy of the current values computed from scratch, absolute: `O(pixels · taps)`
+    /// for the distance energy (where [`Optimizer::energy`] is relative to the start).
+    pub fn recompute_energy(&self) -> i128 {
+        match &self.energy_state {
+            Energy::Product { .. } => self.product_energy(&self.field_from_scratch()),
+            Energy::Distance { kernel, dims, .. } => {
+                let columns = self.whole_columns();
+                let (w, h) = (self.width, self.height);
+                let all = |k: usize| 0..kernel.terms[k].spatial.len();
+                let top = (1i16 << 14) - 1;
+                (0..self.depth)
+                    .into_par_iter()
+                    .map(|z| {
+                        let mut sum = 0i128;
+                        for c in 0..*dims {
+                            for y in 0..h {
+                                for x in 0..w {
+                                    // Σ g |v_p − v_r| = v_p Σg + Σ g v_r − 2 Σ g min(v_p, v_r).
+                                    let v = columns.get(c, (x, y), z);
+                                    let values = scan(kernel, &columns, c, all, z, (x, y), 0, top);
+                                    let mins = scan(kernel, &columns, c, all, z, (x, y), 0, v);
+                                    sum -= i128::from(v) * i128::from(kernel.total)
+                                        + i128::from(values)
+                                        - 2 * i128::from(mins);
+                                }
+                            }
+                        }
+                        sum
+                    })
+                    .sum()
+            }
+        }
+    }
+
+    /// Whether the kept `φ` equals a from-scratch computation exactly (always true for the
+    /// distance energy, which keeps no field).
+    pub fn field_is_exact(&self) -> bool {
+        match &self.energy_state {
+            Energy::Product { phi, .. } => self.field_from_scratch() == *phi,
+            Energy::Distance { .. } => true,
+        }
+    }
+
+    /// The levels of the whole volume as [`Columns`] wrapping on both axes.
+    fn whole_columns(&self) -> Columns {
+        let tile = Tile {
+            x0: 0,
+            y0: 0,
+            w: self.width,
+            h: self.height,
+            rx0: 0,
+            ry0: 0,
+            rw: self.width,
+            rh: self.height,
+            wrap_x: true,
+            wrap_y: true,
+            colour: 0,
+            id: 0,
+        };
+        match self.extract(&tile).region {
+            Region::Distance(columns) => columns,
+            Region::Product(_) => unreachable!("distance energy"),
+        }
+    }
+
+    fn index(&self, z: u32, (x, y): (u32, u32)) -> usize {
+        assert!(
+            (x as usize) < self.width && (y as usize) < self.height && (z as usize) < self.depth,
+            "pixel ({x}, {y}, {z}) is outside the volume"
+        );
+        (z as usize * self.height + y as usize) * self.width + x as usize
+    }
+
+    /// The exact energy change of swapping the values of pixels `a` and `b` (`(x, y)`) of frame
+    /// `z`. Panics outside the volume.
+    pub fn swap_delta(&self, z: u32, a: (u32, u32), b: (u32, u32)) -> i128 {
+        let (ia, ib) = (self.index(z, a), self.index(z, b));
+        let (a, b) = ((a.0 as usize, a.1 as usize), (b.0 as usize, b.1 as usize));
+        let z = z as usize;
+        match &self.energy_state {
+            Energy::Product { phi, .. } => {
+                let pixels = self.pixels();
+                let (pa, pb) = (self.perm[ia], self.perm[ib]);
+                self.product_delta(
+                    z,
+                    pa,
+                    pb,
+                    |c| (phi[c * pixels + ia] as i64, phi[c * pixels + ib] as i64),
+                    (b.0 as i64 - a.0 as i64, b.1 as i64 - a.1 as i64),
+                )
+            }
+            Energy::Distance { .. } => self
+                .distance_delta(&self.whole_columns(), z, a, b, None)
+                .unwrap_or(0),
+        }
+    }
+
+    /// Swaps the values of pixels `a` and `b` of frame `z` if that lowers the energy, counting
+    /// one attempt; returns the accepted delta. Panics outside the volume.
+    pub fn try_swap(&mut self, z: u32, a: (u32, u32), b: (u32, u32)) -> Option<i128> {
+        let delta = self.swap_delta(z, a, b);
+        self.attempted += 1;
+        self.screened += 1;
+        if delta >= 0 {
+            return None;
+        }
+        let (ia, ib) = (self.index(z, a), self.index(z, b));
+        let (w, h) = (self.width, self.height);
+        if let Energy::Product {
+            kernel,
+            dims,
+            table,
+            phi,
+        } = &mut self.energy_state
+        {
+            let base = z as usize * w * h;
+            let step: Vec<i64> = (0..*dims)
+                .map(|c| {
+                    i64::from(table[(base + self.perm[ib] as usize) * *dims + c])
+                        - i64::from(table[(base + self.perm[ia] as usize) * *dims + c])
+                })
+                .collect();
+            let view = (w, h, true, true);
+            let (a, b) = ((a.0 as usize, a.1 as usize), (b.0 as usize, b.1 as usize));
+            splat(kernel, phi, view, z as usize, a, &step, 1.0);
+            splat(kernel, phi, view, z as usize, b, &step, -1.0);
+        }
+        self.perm.swap(ia, ib);
+        self.accepted += 1;
+        self.energy += delta;
+        Some(delta)
+    }
+
+    /// `ΔE` of swapping value indices `pa` and `pb` of frame `z` at pixels whose `φ` components
+    /// are `phi(c) = (φ_c(p), φ_c(q))`, `(dx, dy)` apart (product energy).
+    #[inline(always)]
+    fn product_delta(
+        &self,
+        z: usize,
+        pa: u32,
+        pb: u32,
+        phi: impl Fn(usize) -> (i64, i64),
+        (dx, dy): (i64, i64),
+    ) -> i128 {
+        let Energy::Product {
+            kernel,
+            dims,
+            table,
+            ..
+        } = &self.energy_state
+        else {
+            unreachable!("product delta of a product optimiser");
+        };
+        let base = z * self.slice();
+        let (ka, kb) = ((base + pa as usize) * dims, (base + pb as usize) * dims);
+        let mut linear = 0i128;
+        let mut square = 0i128;
+        for c in 0..*dims {
+            let d = i128::from(table[kb + c]) - i128::from(table[ka + c]);
+            let (fp, fq) = phi(c);
+            linear += d * i128::from(fp - fq);
+            square += d * d;
+        }
+        if square == 0 {
+            return 0;
+        }
+        let g = i128::from(kernel.same_frame.get(0, 0) - kernel.same_frame.get(dx, dy));
+        2 * linear + 2 * square * g
+    }
+
+    /// `ΔE` of swapping the levels of region pixels `a` and `b` of frame `z` (distance energy);
+    /// with `screen = Some(τ)`, `None` if the core's delta is at least `τ · Σ_c len_c · Σ g` (the
+    /// proposal is dropped unevaluated). `Some(0)` for equal values.
+    #[inline(always)]
+    fn distance_delta(
+        &self,
+        columns: &Columns,
+        z: usize,
+        a: (usize, usize),
+        b: (usize, usize),
+        screen: Option<f64>,
+    ) -> Option<i128> {
+        let Energy::Distance {
+            kernel, core, dims, ..
+        } = &self.energy_state
+        else {
+            unreachable!("distance delta of a distance optimiser");
+        };
+        let pair = i128::from(
+            kernel.same_frame.get(0, 0)
+                - kernel
+                    .same_frame
+                    .get(b.0 as i64 - a.0 as i64, b.1 as i64 - a.1 as i64),
+        );
+        let near = |k: usize| 0..core[k];
+        let far = |k: usize| core[k]..kernel.terms[k].spatial.len();
+        // Per channel: (sign, lo, len), len 0 where the levels are equal.
+        let mut parts = [(0i128, 0i16, 0i16); MAX_CHANNELS];
+        let mut total_len = 0i128;
+        for (c, part) in parts.iter_mut().enumerate().take(*dims) {
+            let (va, vb) = (columns.get(c, a, z), columns.get(c, b, z));
+            *part = (if vb > va { 1 } else { -1 }, va.min(vb), (va - vb).abs());
+            total_len += i128::from(part.2);
+        }
+        if total_len == 0 {
+            return Some(0);
+        }
+        let sum = |taps: &dyn Fn(usize) -> std::ops::Range<usize>| {
+            let mut total = 0i128;
+            for (c, &(sign, lo, len)) in parts.iter().enumerate().take(*dims) {
+                if len != 0 {
+                    total += sign
+                        * (i128::from(scan(kernel, columns, c, taps, z, a, lo, len))
+                            - i128::from(scan(kernel, columns, c, taps, z, b, lo, len)));
+                }
+            }
+            total
+        };
+        let core_sum = sum(&near);
+        if let Some(tau) = screen {
+            let core_delta = 4 * (core_sum + pair * total_len);
+            if core_delta as f64 >= tau * total_len as f64 * kernel.total as f64 {
+                return None;
+            }
+        }
+        let rest = sum(&far);
+        Some(4 * (core_sum + rest + pair * total_len))
+    }
+
+    /// One pass ([module docs](self)): in every frame each pixel proposes one swap, or, with
+    /// `fraction < 1`, the first `round(fraction · n)` pixels of each tile's random order do.
+    pub fn run_pass(&mut self, fraction: f64) {
+        let (w, h) = (self.width as u32, self.height as u32);
+        let (rx, ry) = self.reach;
+        let pass = self.passes;
+        self.passes += 1;
+        let mut grid_rng = keyed_rng(self.seed, stream::GRID, pass, 0);
+        let (ox, oy) = (grid_rng.random_range(0..w), grid_rng.random_range(0..h));
+        let (nx, ny) = (
+            tiles_along(w, rx, Self::TILE_TARGET),
+            tiles_along(h, ry, Self::TILE_TARGET),
+        );
+        let bound =
+            |i: u32, n: u32, size: u32| (u64::from(i) * u64::from(size) / u64::from(n)) as usize;
+        // (start, size, region start, region size, wrap) of tile i of n along an axis.
+        let axis = |i: u32, n: u32, size: u32, offset: u32, reach: u32| {
+            let size_us = size as usize;
+            if n == 1 {
+                (0, size_us, 0, size_us, true)
+            } else {
+                let start = (offset as usize + bound(i, n, size)) % size_us;
+                let len = bound(i + 1, n, size) - bound(i, n, size);
+                let reach = reach as usize;
+                (
+                    start,
+                    len,
+                    (start + size_us - reach) % size_us,
+                    len + 2 * reach,
+                    false,
+                )
+            }
+        };
+        let mut tiles = Vec::with_capacity((nx * ny) as usize);
+        for ty in 0..ny {
+            for tx in 0..nx {
+                let (x0, tw, rx0, rw, wrap_x) = axis(tx, nx, w, ox, rx);
+                let (y0, th, ry0, rh, wrap_y) = axis(ty, ny, h, oy, ry);
+                tiles.push(Tile {
+                    x0,
+                    y0,
+                    w: tw,
+                    h: th,
+                    rx0,
+                    ry0,
+                    rw,
+                    rh,
+                    wrap_x,
+                    wrap_y,
+                    colour: ((tx % 2) + 2 * (ty % 2)) as u8,
+                    id: u64::from(ty) * u64::from(nx) + u64::from(tx),
+                });
+            }
+        }
+        let fraction = fraction.clamp(0.0, 1.0);
+        for colour in 0..4 {
+            let batch: Vec<Tile> = tiles
+                .iter()
+                .copied()
+                .filter(|t| t.colour == colour)
+                .collect();
+            let results: Vec<(Tile, Work, TileResult)> = batch
+                .par_iter()
+                .map(|tile| {
+                    let mut work = self.extract(tile);
+                    let result = self.run_tile(tile, &mut work, pass, fraction);
+                    (*tile, work, result)
+                })
+                .collect();
+            for (tile, work, result) in results {
+                self.write_back(&tile, &work);
+                self.attempted += result.attempted;
+                self.screened += result.screened;
+                self.accepted += result.accepted;
+                self.energy += result.delta;
+            }
+        }
+    }
+
+    /// The tile's private copies ([`Work`]).
+    fn extract(&self, tile: &Tile) -> Work {
+        let (w, h, d) = (self.width, self.height, self.depth);
+        let mut perm = Vec::with_capacity(tile.w * tile.h * d);
+        for z in 0..d {
+            for ty in 0..tile.h {
+                let row = (z * h + (tile.y0 + ty) % h) * w;
+                perm.extend((0..tile.w).map(|tx| self.perm[row + (tile.x0 + tx) % w]));
+            }
+        }
+        let (rw, rh) = (tile.rw, tile.rh);
+        let region = match &self.energy_state {
+            Energy::Distance { levels, dims, .. } => {
+                let slice = self.slice();
+                let mut cols = vec![0i16; dims * rw * rh * 2 * d];
+                for (k, col) in cols.chunks_exact_mut(2 * d).enumerate() {
+                    let (c, k) = (k / (rw * rh), k % (rw * rh));
+                    let y = (tile.ry0 + k / rw) % h;
+                    let x = (tile.rx0 + k % rw) % w;
+                    for z in 0..d {
+                        let index = self.perm[(z * h + y) * w + x] as usize;
+                        let level = levels[(z * slice + index) * dims + c];
+                        col[z] = level;
+                        col[z + d] = level;
+                    }
+                }
+                Region::Distance(Columns {
+                    cols,
+                    rw,
+                    rh,
+                    wrap_x: tile.wrap_x,
+                    wrap_y: tile.wrap_y,
+                    depth: d,
+                })
+            }
+            Energy::Product { phi, dims, .. } => {
+                let pixels = self.pixels();
+                let mut out = Vec::with_capacity(dims * d * rh * rw);
+                for c in 0..*dims {
+                    for z in 0..d {
+                        for ly in 0..rh {
+                            let row = c * pixels + (z * h + (tile.ry0 + ly) % h) * w;
+                            let first = rw.min(w - tile.rx0);
+                            out.extend_from_slice(&phi[row + tile.rx0..row + tile.rx0 + first]);
+                            out.extend_from_slice(&phi[row..row + (rw - first)]);
+                        }
+                    }
+                }
+                Region::Product(out)
+            }
+        };
+        Work { perm, region }
+    }
+
+    /// Writes a tile's copies back ([`Optimizer::extract`]'s layouts).
+    fn write_back(&mut self, tile: &Tile, work: &Work) {
+        let (w, h, d) = (self.width, self.height, self.depth);
+        let mut k = 0;
+        for z in 0..d {
+            for ty in 0..tile.h {
+                let row = (z * h + (tile.y0 + ty) % h) * w;
+                for tx in 0..tile.w {
+                    self.perm[row + (tile.x0 + tx) % w] = work.perm[k];
+                    k += 1;
+                }
+            }
+        }
+        let pixels = self.pixels();
+        if let (Energy::Product { phi, dims, .. }, Region::Product(region)) =
+            (&mut self.energy_state, &work.region)
+        {
+            let (rw, rh) = (tile.rw, tile.rh);
+            let mut k = 0;
+            for c in 0..*dims {
+                for z in 0..d {
+                    for ly in 0..rh {
+                        let row = c * pixels + (z * h + (tile.ry0 + ly) % h) * w;
+                        let first = rw.min(w - tile.rx0);
+                        phi[row + tile.rx0..row + tile.rx0 + first]
+                            .copy_from_slice(&region[k..k + first]);
+                        phi[row..row + (rw - first)].copy_from_slice(&region[k + first..k + rw]);
+                        k += rw;
+                    }
+                }
+            }
+        }
+    }
+
+    /// Proposes the swaps of one tile of one pass in every frame, on the tile's copies.
+    fn run_tile(&self, tile: &Tile, work: &mut Work, pass: u64, fraction: f64) -> TileResult {
+        let mut result = TileResult::default();
+        let n = tile.w * tile.h;
+        if n < 2 {
+            return result;
+        }
+        let mut rng = keyed_rng(self.seed, stream::TILE, pass, tile.id);
+        let count = ((fraction * n as f64).round() as usize).min(n);
+        let mut order: Vec<u32> = (0..n as u32).collect();
+        let screen = match &self.energy_state {
+            Energy::Distance { screen, .. } => *screen,
+            Energy::Product { .. } => None,
+        };
+        let mut step = Vec::new();
+        for z in 0..self.depth {
+            order.shuffle(&mut rng);
+            let base = z * n;
+            for &i in &order[..count] {
+                // A uniform partner among the other n − 1 pixels (multiply-shift, bias < 2⁻¹⁶).
+                let mut j = ((u64::from(rng.next_u32()) * (n as u64 - 1)) >> 32) as u32;
+                if j >= i {
+                    j += 1;
+                }
+                let (i, j) = (i as usize, j as usize);
+                result.attempted += 1;
+                let a = tile.local(i, self.reach);
+                let b = tile.local(j, self.reach);
+                let (pa, pb) = (work.perm[base + i], work.perm[base + j]);
+                let delta = match &work.region {
+                    Region::Distance(columns) => {
+                        match self.distance_delta(columns, z, a, b, screen) {
+                            Some(delta) => delta,
+                            None => continue,
+                        }
+                    }
+                    Region::Product(phi) => {
+                        let plane = self.depth * tile.rh * tile.rw;
+                        let (ka, kb) = (
+                            (z * tile.rh + a.1) * tile.rw + a.0,
+                            (z * tile.rh + b.1) * tile.rw + b.0,
+                        );
+                        self.product_delta(
+                            z,
+                            pa,
+                            pb,
+                            |c| (phi[c * plane + ka] as i64, phi[c * plane + kb] as i64),
+                            (b.0 as i64 - a.0 as i64, b.1 as i64 - a.1 as i64),
+                        )
+                    }
+                };
+                result.screened += 1;
+                if delta >= 0 {
+                    continue;
+                }
+                match (&mut work.region, &self.energy_state) {
+                    (Region::Distance(columns), Energy::Distance { dims, .. }) => {
+                        for c in 0..*dims {
+                            let (la, lb) = (columns.get(c, a, z), columns.get(c, b, z));
+                            columns.set(c, a, z, lb);
+                            columns.set(c, b, z, la);
+                        }
+                    }
+                    (
+                        Region::Product(phi),
+                        Energy::Product {
+                            kernel,
+                            dims,
+                            table,
+                            ..
+                        },
+                    ) => {
+                        let slice = z * self.slice();
+                        step.clear();
+                        step.extend((0..*dims).map(|c| {
+                            i64::from(table[(slice + pb as usize) * dims + c])
+                                - i64::from(table[(slice + pa as usize) * dims + c])
+                        }));
+                        let view = (tile.rw, tile.rh, tile.wrap_x, tile.wrap_y);
+                        splat(kernel, phi, view, z, a, &step, 1.0);
+                        splat(kernel, phi, view, z, b, &step, -1.0);
+                    }
+                    (Region::Product(_), Energy::Distance { .. })
+                    | (Region::Distance(_), Energy::Product { .. }) => {
+                        unreachable!("regions match the energy")
+                    }
+                }
+                work.perm.swap(base + i, base + j);
+                result.accepted += 1;
+                result.delta += delta;
+            }
+        }
+        result
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tiles_keep_same_colour_apart() {
+        for size in 1..100 {
+            for reach in 0..8 {
+                let n = tiles_along(size, reach, Optimizer::TILE_TARGET);
+                assert!(n == 1 || n % 2 == 0);
+                if n > 1 {
+                    assert!(size / n >= 2 * reach, "{size} {reach} {n}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn window_dot_is_exact() {
+        // Weights summing to at most 2^14, levels below 2^14: the documented range.
+        let t: Vec<i16> = (0..70).map(|i| ((i * 977) % 460) as i16).collect();
+        assert!(t.iter().map(|&w| i32::from(w)).sum::<i32>() <= 1 << 14);
+        let v: Vec<i16> = (0..70).map(|i| ((i * 7919) % 16384) as i16).collect();
+        for (lo, len) in [(0, 16383), (5000, 3), (100, 9000), (16000, 383), (7, 0)] {
+            let half = len >> 1;
+            let exact: i64 = t
+                .iter()
+                .zip(&v)
+                .map(|(&a, &b)| {
+                    i64::from(a) * (i64::from((b - lo).clamp(0, len)) - i64::from(half))
+                })
+                .sum();
+            assert_eq!(i64::from(window_dot(&t, &v, lo, len, half)), exact);
+        }
+    }
+}

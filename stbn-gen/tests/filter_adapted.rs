@@ -1,0 +1,514 @@
+//! Filter-adapted masks (`stbn_gen::filter_adapted`): exact stratification, exact incremental
+//! energies, determinism, and that they beat STBN on the filtered error they are made for.
+
+use stbn_gen::analysis::{Field, FilteredErrorOptions, filtered_error};
+use stbn_gen::filter_adapted::testing::{scalar_optimizer, vector_optimizer};
+use stbn_gen::filter_adapted::{
+    FilterAdaptedSpec, FilterAdaptedSpecError, FilterCombination, SpatialFilter, TemporalFilter,
+    ValueKernel, generate_filter_adapted, generate_filter_adapted_vector,
+    generate_filter_adapted_with_trace,
+};
+use stbn_gen::{InitialArrangement, MaskSpec, SampleSpace, Volume};
+
+/// Every frame of `volume` is a permutation of `0..W·H`.
+fn assert_permutations(volume: &Volume) {
+    let n = volume.slice_pixels();
+    for z in 0..volume.depth() {
+        let mut ranks = volume.slice(z).to_vec();
+        ranks.sort_unstable();
+        assert!(
+            ranks.iter().enumerate().all(|(i, &r)| r as usize == i),
+            "frame {z} of {}×{}×{} is not a permutation of 0..{n}",
+            volume.width(),
+            volume.height(),
+            volume.depth()
+        );
+    }
+}
+
+/// A seeded permutation of `0..n` per frame (a simple LCG shuffle: independent of the crate).
+fn shuffled(n: usize, depth: usize, seed: u64) -> Vec<u32> {
+    let mut state = seed
+        .wrapping_mul(6364136223846793005)
+        .wrapping_add(1442695040888963407);
+    let mut next = move || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (state >> 33) as usize
+    };
+    let mut out = Vec::with_capacity(n * depth);
+    for _ in 0..depth {
+        let mut frame: Vec<u32> = (0..n as u32).collect();
+        for i in (1..n).rev() {
+            frame.swap(i, next() % (i + 1));
+        }
+        out.extend(frame);
+    }
+    out
+}
+
+/// The filter configurations the exactness tests cover.
+fn configurations() -> Vec<(SpatialFilter, TemporalFilter, FilterCombination)> {
+    vec![
+        (
+            SpatialFilter::DEFAULT,
+            TemporalFilter::DEFAULT,
+            FilterCombination::Product,
+        ),
+        (
+            SpatialFilter::Box { size: 3 },
+            TemporalFilter::ExponentialHistory {
+                alpha: 0.2,
+                beta: 0.1,
+            },
+            FilterCombination::Separate {
+                spatial_weight: 0.6,
+            },
+        ),
+        (
+            SpatialFilter::Binomial { order: 4 },
+            TemporalFilter::Gaussian { sigma: 1.5 },
+            FilterCombination::Product,
+        ),
+        (
+            SpatialFilter::Gaussian { sigma: 0.8 },
+            TemporalFilter::Box { size: 4 },
+            FilterCombination::Separate {
+                spatial_weight: 1.0,
+            },
+        ),
+    ]
+}
+
+#[test]
+fn deltas_are_exact_and_the_running_energy_matches_a_recomputation() {
+    // 28×24 is two tiles wide at the default filter's reach (6 px): passes exercise the tiled
+    // path with halos; 7×5 wraps a single tile around both axes.
+    for (w, h, d) in [(28, 24, 4), (7, 5, 3)] {
+        for (spatial, temporal, combination) in configurations() {
+            for kernel in [ValueKernel::Distance, ValueKernel::Product] {
+                let spec = FilterAdaptedSpec::new(w, h, d, 5)
+                    .with_filters(spatial, temporal, combination)
+                    .with_value_kernel(kernel);
+                let n = (w * h) as usize;
+                let mut o = scalar_optimizer(&spec, shuffled(n, d as usize, 9), None);
+                let what = format!("{w}×{h}×{d} {spatial} / {temporal} / {combination} {kernel:?}");
+                let start = o.recompute_energy();
+                let running = |o: &stbn_gen::filter_adapted::testing::TestOptimizer| {
+                    // The distance energy runs relative to the start.
+                    match kernel {
+                        ValueKernel::Distance => start + o.energy(),
+                        ValueKernel::Product => o.energy(),
+                    }
+                };
+                assert_eq!(running(&o), start, "{what}");
+                let mut state = 12345u64;
+                let mut rand = |m: u32| {
+                    state = state
+                        .wrapping_mul(2862933555777941757)
+                        .wrapping_add(3037000493);
+                    ((state >> 33) % u64::from(m)) as u32
+                };
+                for _ in 0..40 {
+                    let z = rand(d);
+                    let (a, b) = ((rand(w), rand(h)), (rand(w), rand(h)));
+                    let predicted = o.swap_delta(z, a, b);
+                    let before = o.recompute_energy();
+                    // Apply the swap by hand when it would be rejected, to check positive
+                    // deltas too: swapping back restores the energy.
+                    match o.try_swap(z, a, b) {
+                        Some(delta) => {
+                            assert_eq!(delta, predicted, "{what}");
+                            assert_eq!(o.recompute_energy(), before + delta, "{what}");
+                        }
+                        None => assert!(predicted >= 0, "{what}: {predicted}"),
+                    }
+                    assert_eq!(running(&o), o.recompute_energy(), "{what}");
+                }
+                assert!(o.field_is_exact(), "{what}");
+                for _ in 0..2 {
+                    o.run_pass(1.0);
+                    assert_eq!(running(&o), o.recompute_energy(), "{what}: after a pass");
+                    assert!(o.field_is_exact(), "{what}: after a pass");
+                }
+                assert!(running(&o) < start, "{what}: no swap lowered the energy");
+            }
+        }
+    }
+}
+
+#[test]
+fn vector_deltas_are_exact() {
+    for space in [
+        SampleSpace::Vec { dims: 2 },
+        SampleSpace::Vec { dims: 4 },
+        SampleSpace::UnitVec1,
+        SampleSpace::UnitVec3,
+    ] {
+        for kernel in [ValueKernel::Distance, ValueKernel::Product] {
+            let spec = FilterAdaptedSpec::new(24, 24, 2, 8).with_value_kernel(kernel);
+            // Screening only matters to the distance kernel.
+            let screens: &[Option<f64>] = match kernel {
+                ValueKernel::Distance => &[None, Some(1e-3)],
+                ValueKernel::Product => &[None],
+            };
+            for &screen in screens {
+                let mut o = vector_optimizer(&spec, &space, screen);
+                let what = format!("{} {kernel:?} {screen:?}", space.name());
+                let start = o.recompute_energy();
+                let running = |o: &stbn_gen::filter_adapted::testing::TestOptimizer| match kernel {
+                    ValueKernel::Distance => start + o.energy(),
+                    ValueKernel::Product => o.energy(),
+                };
+                let mut state = 99u64;
+                let mut rand = |m: u32| {
+                    state = state
+                        .wrapping_mul(2862933555777941757)
+                        .wrapping_add(3037000493);
+                    ((state >> 33) % u64::from(m)) as u32
+                };
+                for _ in 0..12 {
+                    let z = rand(2);
+                    let (a, b) = ((rand(24), rand(24)), (rand(24), rand(24)));
+                    let predicted = o.swap_delta(z, a, b);
+                    if let Some(delta) = o.try_swap(z, a, b) {
+                        assert_eq!(delta, predicted, "{what}");
+                    }
+                    assert_eq!(running(&o), o.recompute_energy(), "{what}");
+                }
+                o.run_pass(1.0);
+                assert_eq!(running(&o), o.recompute_energy(), "{what}: after a pass");
+                assert!(o.field_is_exact(), "{what}");
+                assert!(running(&o) < start, "{what}");
+            }
+        }
+    }
+}
+
+#[test]
+fn screening_only_skips_proposals() {
+    // With screening, every kept swap still has its exact delta (the running energy matches),
+    // and fewer proposals are fully evaluated than without.
+    let spec = FilterAdaptedSpec::new(32, 32, 6, 2);
+    let ranks = shuffled(32 * 32, 6, 4);
+    let mut screened = scalar_optimizer(&spec, ranks.clone(), Some(1e-3));
+    let mut full = scalar_optimizer(&spec, ranks, None);
+    let start = screened.recompute_energy();
+    screened.run_pass(1.0);
+    full.run_pass(1.0);
+    assert_eq!(start + screened.energy(), screened.recompute_energy());
+    let (attempted, evaluated, accepted) = screened.counts();
+    let (all, all_evaluated, _) = full.counts();
+    assert_eq!(attempted, all);
+    assert!(
+        evaluated < all_evaluated / 2,
+        "{evaluated} of {all_evaluated}"
+    );
+    assert!(accepted > 0 && accepted <= evaluated);
+}
+
+#[test]
+fn every_frame_stays_a_permutation() {
+    for (w, h, d) in [
+        (17, 31, 5),
+        (1, 1, 1),
+        (1, 9, 1),
+        (5, 4, 1),
+        (2, 2, 2),
+        (24, 8, 3),
+    ] {
+        for arrangement in [InitialArrangement::ScalarStbn, InitialArrangement::Random] {
+            for kernel in [ValueKernel::Distance, ValueKernel::Product] {
+                let mut spec = FilterAdaptedSpec::new(w, h, d, 3)
+                    .with_swaps_per_pixel(2.5)
+                    .with_value_kernel(kernel);
+                spec.initial_arrangement = arrangement;
+                let volume = generate_filter_adapted(&spec).unwrap();
+                assert_eq!((volume.width(), volume.height(), volume.depth()), (w, h, d));
+                assert_permutations(&volume);
+            }
+        }
+    }
+}
+
+#[test]
+fn extreme_filters_terminate_with_valid_masks() {
+    let cases = [
+        (
+            SpatialFilter::Gaussian { sigma: 1000.0 },
+            TemporalFilter::Gaussian { sigma: 1000.0 },
+        ),
+        (
+            SpatialFilter::Gaussian { sigma: 0.05 },
+            TemporalFilter::Exponential { alpha: 1.0 },
+        ),
+        (
+            SpatialFilter::Box { size: 40 },
+            TemporalFilter::Box { size: 1 },
+        ),
+        (
+            SpatialFilter::Binomial { order: 1 },
+            TemporalFilter::ExponentialHistory {
+                alpha: 0.001,
+                beta: 1.0,
+            },
+        ),
+    ];
+    for (spatial, temporal) in cases {
+        for combination in [
+            FilterCombination::Product,
+            FilterCombination::Separate {
+                spatial_weight: 0.0,
+            },
+        ] {
+            let spec = FilterAdaptedSpec::new(12, 10, 6, 1)
+                .with_filters(spatial, temporal, combination)
+                .with_swaps_per_pixel(2.0);
+            let (volume, trace) = generate_filter_adapted_with_trace(&spec, &mut |_| {}).unwrap();
+            assert_permutations(&volume);
+            assert!(
+                trace.points.iter().all(|p| p.energy.is_finite()),
+                "{spatial} {temporal}"
+            );
+        }
+    }
+}
+
+#[test]
+fn energy_never_rises_and_falls_over_a_run() {
+    for kernel in [ValueKernel::Distance, ValueKernel::Product] {
+        let mut spec = FilterAdaptedSpec::new(32, 32, 8, 11)
+            .with_swaps_per_pixel(6.0)
+            .with_value_kernel(kernel);
+        spec.initial_arrangement = InitialArrangement::Random;
+        let mut reports = 0;
+        let (_, trace) = generate_filter_adapted_with_trace(&spec, &mut |p| {
+            reports += 1;
+            assert_eq!((p.passes_done, p.passes), (reports, 6));
+        })
+        .unwrap();
+        assert_eq!(trace.points.len(), 7);
+        for pair in trace.points.windows(2) {
+            assert!(pair[1].energy <= pair[0].energy, "{kernel:?}: {pair:?}");
+            assert!(pair[1].swaps_accepted >= pair[0].swaps_accepted);
+        }
+        let (first, last) = (trace.points[0], trace.points[6]);
+        assert!(last.energy < first.energy, "{kernel:?}: {first:?} {last:?}");
+        assert_eq!(last.swaps_attempted, 6 * 32 * 32 * 8);
+    }
+}
+
+#[test]
+fn identical_for_one_and_two_threads() {
+    let spec = FilterAdaptedSpec::new(48, 40, 8, 21).with_swaps_per_pixel(3.0);
+    let space = SampleSpace::Vec { dims: 2 };
+    let vector_spec = spec.clone();
+    let run = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| {
+                let scalar = generate_filter_adapted_with_trace(&spec, &mut |_| {}).unwrap();
+                let vector =
+                    generate_filter_adapted_vector(&vector_spec, &space, &mut |_| {}).unwrap();
+                (scalar, vector)
+            })
+    };
+    let one = run(1);
+    let two = run(2);
+    assert!(one.0.0 == two.0.0, "scalar masks differ");
+    assert!(one.0.1 == two.0.1, "scalar traces differ");
+    assert!(one.1.0 == two.1.0, "vector masks differ");
+    assert!(one.1.1 == two.1.1, "vector traces differ");
+    // A different seed gives a different mask.
+    let other = generate_filter_adapted(&FilterAdaptedSpec {
+        seed: 22,
+        ..spec.clone()
+    })
+    .unwrap();
+    assert!(other != one.0.0);
+}
+
+/// The last frame's filtered error (the project's metric, default options) of a volume.
+fn filtered_last(volume: &Volume) -> f64 {
+    let values = volume.values();
+    let (w, h, d) = (volume.width(), volume.height(), volume.depth());
+    let field = Field::new(w as usize, h as usize, d as usize, &values).unwrap();
+    *filtered_error(&field, FilteredErrorOptions::default())
+        .last()
+        .unwrap()
+}
+
+#[test]
+fn beats_stbn_on_the_filtered_error_at_32x32x16() {
+    let stbn = stbn_gen::generate(&MaskSpec::new(32, 32, 16, 7)).unwrap();
+    let spec = FilterAdaptedSpec::new(32, 32, 16, 7).with_swaps_per_pixel(32.0);
+    let adapted = generate_filter_adapted(&spec).unwrap();
+    let (s, a) = (filtered_last(&stbn), filtered_last(&adapted));
+    eprintln!("32×32×16 filtered error at the last frame: STBN {s:.5}, filter-adapted {a:.5}");
+    assert!(a < 0.95 * s, "filter-adapted {a} vs STBN {s}");
+    // The product (linear) kernel optimises the filtered values, not the thresholded error.
+    let product = generate_filter_adapted(&spec.with_value_kernel(ValueKernel::Product)).unwrap();
+    eprintln!("  product kernel: {:.5}", filtered_last(&product));
+}
+
+/// Each frame's values as sorted bit patterns.
+fn frame_multisets(values: &[f32], frame_len: usize) -> Vec<Vec<u32>> {
+    values
+        .chunks(frame_len)
+        .map(|frame| {
+            let mut bits: Vec<u32> = frame.iter().map(|v| v.to_bits()).collect();
+            bits.sort_unstable();
+            bits
+        })
+        .collect()
+}
+
+#[test]
+fn vector_masks_keep_each_frames_stratified_set() {
+    for space in [
+        SampleSpace::Vec { dims: 1 },
+        SampleSpace::Vec { dims: 2 },
+        SampleSpace::Vec { dims: 4 },
+        SampleSpace::UnitVec1,
+        SampleSpace::UnitVec2,
+        SampleSpace::UnitVec3,
+        SampleSpace::CosineHemisphere,
+    ] {
+        for kernel in [ValueKernel::Distance, ValueKernel::Product] {
+            let spec = FilterAdaptedSpec::new(16, 12, 4, 3)
+                .with_value_kernel(kernel)
+                .with_swaps_per_pixel(0.0);
+            let (start, _) = generate_filter_adapted_vector(&spec, &space, &mut |_| {}).unwrap();
+            let spec = spec.with_swaps_per_pixel(4.0);
+            let (end, trace) = generate_filter_adapted_vector(&spec, &space, &mut |_| {}).unwrap();
+            let what = format!("{} {kernel:?}", space.name());
+            let frame = 16 * 12 * space.dims();
+            assert_eq!((end.width(), end.height(), end.depth()), (16, 12, 4));
+            assert_eq!(end.dims(), space.dims());
+            assert_eq!(
+                frame_multisets(start.values(), frame),
+                frame_multisets(end.values(), frame),
+                "{what}"
+            );
+            assert!(start.values() != end.values(), "{what}: nothing moved");
+            let (first, last) = (trace.points[0], *trace.points.last().unwrap());
+            assert!(last.energy < first.energy, "{what}");
+            assert_eq!(end.pdf(), None);
+            assert_eq!(
+                end.value(3, 2, 1),
+                &end.slice_values(1)[(2 * 16 + 3) * space.dims()..][..space.dims()]
+            );
+        }
+    }
+}
+
+#[test]
+fn invalid_specs_name_their_field() {
+    let base = FilterAdaptedSpec::new(8, 8, 4, 0);
+    let cases: Vec<(FilterAdaptedSpec, &str)> = vec![
+        (
+            FilterAdaptedSpec {
+                width: 0,
+                ..base.clone()
+            },
+            "`width`",
+        ),
+        (
+            FilterAdaptedSpec {
+                width: 8192,
+                height: 8192,
+                depth: 2,
+                ..base.clone()
+            },
+            "GiB",
+        ),
+        (
+            base.clone().with_filters(
+                SpatialFilter::Gaussian { sigma: f64::NAN },
+                TemporalFilter::DEFAULT,
+                FilterCombination::Product,
+            ),
+            "`spatial_filter`",
+        ),
+        (
+            base.clone().with_filters(
+                SpatialFilter::Box { size: 0 },
+                TemporalFilter::DEFAULT,
+                FilterCombination::Product,
+            ),
+            "`spatial_filter`",
+        ),
+        (
+            base.clone().with_filters(
+                SpatialFilter::DEFAULT,
+                TemporalFilter::Exponential { alpha: 0.0 },
+                FilterCombination::Product,
+            ),
+            "`temporal_filter`",
+        ),
+        (
+            base.clone().with_filters(
+                SpatialFilter::DEFAULT,
+                TemporalFilter::ExponentialHistory {
+                    alpha: 0.1,
+                    beta: 2.0,
+                },
+                FilterCombination::Product,
+            ),
+            "beta",
+        ),
+        (
+            base.clone().with_filters(
+                SpatialFilter::DEFAULT,
+                TemporalFilter::DEFAULT,
+                FilterCombination::Separate {
+                    spatial_weight: -0.5,
+                },
+            ),
+            "`filter_combination`",
+        ),
+        (
+            FilterAdaptedSpec {
+                kernel_tolerance: 1.0,
+                ..base.clone()
+            },
+            "`kernel_tolerance`",
+        ),
+        (
+            base.clone().with_swaps_per_pixel(f64::NAN),
+            "`swaps_per_pixel`",
+        ),
+        (base.clone().with_swaps_per_pixel(1e6), "`swaps_per_pixel`"),
+    ];
+    for (spec, needle) in cases {
+        let message = spec.validate().unwrap_err().to_string();
+        assert!(message.contains(needle), "{message:?} lacks {needle:?}");
+        assert!(generate_filter_adapted(&spec).is_err());
+    }
+    // Vector masks need a valid space.
+    assert_eq!(
+        generate_filter_adapted_vector(&base, &SampleSpace::Vec { dims: 5 }, &mut |_| {})
+            .unwrap_err(),
+        FilterAdaptedSpecError::InvalidDims(5)
+    );
+}
+
+#[test]
+fn footprint_of_the_default_filters() {
+    // Gaussian σ 1.3435 autocorrelated is σ 1.9; at 5e-3 of the peak that keeps offsets within
+    // 6.1 px: 121 spatial offsets, times every frame of the EMA's autocorrelation.
+    let spec = FilterAdaptedSpec::new(128, 128, 64, 0);
+    assert_eq!(spec.kernel_taps(), 121 * 64);
+    let narrow = FilterAdaptedSpec::new(128, 128, 64, 0).with_filters(
+        SpatialFilter::Binomial { order: 2 },
+        TemporalFilter::Box { size: 2 },
+        FilterCombination::Separate {
+            spatial_weight: 0.5,
+        },
+    );
+    // 5×5 spatial (binomial 3 taps autocorrelated) at Δt = 0 plus Δt = ±1 at the origin.
+    assert_eq!(narrow.kernel_taps(), 25 + 2);
+}
