@@ -74,9 +74,10 @@ impl MaskSpec {
     pub const MAX_SLICE_PIXELS: u64 = 1 << 24;
     /// Largest number of pixels of a volume (about 1.25 GiB of generator memory).
     pub const MAX_PIXELS: u64 = 1 << 26;
-    /// Peak generator memory per pixel in bytes: energy word, its copy for the concurrent phase
-    /// 2a, tie-break priority, global rank and per-slice rank, 4 bytes each (the extremum trees add
-    /// under 1%). Measured: 21 MB peak RSS for 128×128×64 through the CLI.
+    /// Generator memory per pixel in bytes, an upper bound: the energy word, its copy for the
+    /// concurrent phase 2a, the tie-break priority and the fill / removal order, 4 bytes each, plus
+    /// 4 for the per-slice ranks (the global ranks reuse the energy buffer; the extremum trees add
+    /// under 1%). Measured peak: 16 bytes per pixel (135 MB for 256×256×128, BENCHMARKS.md).
     pub const BYTES_PER_PIXEL: u64 = 20;
 
     /// A spatiotemporal spec with the paper's defaults.
