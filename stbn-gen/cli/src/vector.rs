@@ -6,7 +6,7 @@ use std::io::{self, BufWriter, Write as _};
 use std::path::Path;
 
 use serde::Serialize;
-use stbn_build_support::MaskEntry;
+use stbn_build_support::{MaskEntry, Method};
 use stbn_gen::EnergyTrace;
 use stbn_runtime::{Encoding, Space, Stbn, ValueMap};
 
@@ -137,9 +137,16 @@ struct Sidecar<'a> {
     pdf_channel: Option<u8>,
     pdf_min: f32,
     pdf_max: f32,
-    sigma_image: f64,
-    sigma_value: f64,
+    /// The swap optimiser's σi (absent for filter-adapted masks).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    sigma_image: Option<f64>,
+    /// The swap optimiser's σs (absent for filter-adapted masks).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    sigma_value: Option<f64>,
     swaps_per_pixel: f64,
+    /// The filters a filter-adapted mask was optimised for (absent otherwise).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    filter: Option<String>,
     image: Option<String>,
     /// Where the PNG slices keep each channel.
     png_layout: String,
@@ -197,6 +204,7 @@ pub fn write_sidecar(
             _ => "; uniform pdf (not stored)".to_owned(),
         }
     };
+    let filter_adapted = entry.kind.method() == Method::FilterAdapted;
     let sidecar = Sidecar {
         name: &entry.name,
         kind: format!("{:?}", entry.kind),
@@ -210,9 +218,15 @@ pub fn write_sidecar(
         pdf_channel: header.space.stores_pdf().then(|| header.channels - 1),
         pdf_min: header.pdf_min,
         pdf_max: header.pdf_max,
-        sigma_image: entry.sigma,
-        sigma_value: entry.sigma_value,
+        sigma_image: (!filter_adapted).then_some(entry.sigma),
+        sigma_value: (!filter_adapted).then_some(entry.sigma_value),
         swaps_per_pixel: entry.swaps_per_pixel,
+        filter: filter_adapted.then(|| {
+            format!(
+                "spatial {:?}, temporal {:?}, combination {:?}",
+                entry.spatial_filter, entry.temporal_filter, entry.filter_combination
+            )
+        }),
         image: entry.image.as_ref().map(|i| i.path.display().to_string()),
         png_layout: png_layout(header.channels, header.space.stores_pdf()),
         decode: format!("{stored}; {values}{unit}{pdf}"),

@@ -212,3 +212,34 @@ fn vector_masks_are_rgba_slices_with_the_pdf_in_alpha_and_a_sidecar_with_the_tra
     assert!(energy(trace.len() - 1) <= energy(0), "{sidecar}");
     assert!(out.join("points/points_trace.csv").exists());
 }
+
+#[test]
+fn sidecars_name_the_parameters_that_made_the_mask() {
+    let dir = tempfile::tempdir().unwrap();
+    let manifest = dir.path().join("assets.ron");
+    fs::write(
+        &manifest,
+        r#"(masks: [
+            (name: "fa", kind: FilterAdapted, size: (8, 8, 4), seed: 1, encoding: Unorm8,
+             space: Vec2, swaps_per_pixel: 1),
+            (name: "v", kind: Vec2, size: (8, 8, 4), seed: 1, encoding: Unorm8,
+             swaps_per_pixel: 1),
+        ])"#,
+    )
+    .unwrap();
+    let out = dir.path().join("out");
+    let output = stbn_gen(&["generate".as_ref(), &manifest, "--out".as_ref(), &out]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    let sidecar = |name: &str| -> serde_json::Value {
+        serde_json::from_str(&fs::read_to_string(out.join(format!("{name}/{name}.json"))).unwrap())
+            .unwrap()
+    };
+    let (fa, v) = (sidecar("fa"), sidecar("v"));
+    assert!(fa["filter"].as_str().unwrap().contains("Gaussian"), "{fa}");
+    assert!(
+        fa.get("sigma_image").is_none() && fa.get("sigma_value").is_none(),
+        "{fa}"
+    );
+    assert_eq!(v["sigma_image"], 1.9, "{v}");
+    assert!(v.get("filter").is_none(), "{v}");
+}
