@@ -17,9 +17,9 @@ pub const ENCODER_VERSION: u32 = 2;
 /// The Unorm level of rank `rank` in a slice of `pixels` pixels with `bits` bits: the level
 /// `q ∈ 0..2^bits` whose midpoint `(q + ½) / 2^bits` is nearest to the exact value
 /// `(rank + ½) / pixels`, in integer arithmetic. Ties (the value on a level boundary, which
-/// happens when a slice has fewer pixels than levels) go toward ½, so rank `r` and rank
-/// `pixels − 1 − r` map to mirrored levels and a slice's decoded mean is exactly ½ for an even
-/// pixel count. When `2^bits` divides `pixels` there are no ties and every level holds
+/// happens when a slice has fewer pixels than levels) go to the level further from ½, so rank
+/// `r` and rank `pixels − 1 − r` map to mirrored levels and a slice's decoded mean is exactly ½
+/// for an even pixel count. When `2^bits` divides `pixels` there are no ties and every level holds
 /// `pixels / 2^bits` ranks.
 pub fn unorm_level(rank: u64, pixels: u64, bits: u32) -> u64 {
     debug_assert!(rank < pixels && bits <= 16);

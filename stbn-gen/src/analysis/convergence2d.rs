@@ -29,7 +29,7 @@ pub enum Integrand2D {
     /// `∫ f = π · 0.4² ≈ 0.5027`. A curved edge, like a soft shadow's penumbra.
     Disc,
     /// `exp(−((x − ½)² + (y − ½)²) / (2σ²))` with σ = [`GAUSSIAN_SIGMA`];
-    /// `∫ f = (σ √(2π) · erf(1 / (2σ√2)))² ≈ 0.2347`. Smooth.
+    /// `∫ f = (σ √(2π) · erf(1 / (2σ√2)))² ≈ 0.2451`. Smooth.
     Gaussian,
     /// `1` where `x + y < 1`, else `0`; `∫ f = ½`. A straight edge across both axes.
     DiagonalStep,

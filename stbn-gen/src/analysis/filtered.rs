@@ -120,12 +120,13 @@ pub fn filtered_error(field: &Field, options: FilteredErrorOptions) -> Vec<f64> 
 ///
 /// `components[c]` holds component `c` of every pixel (`d = components.len() ≥ 1` fields of one
 /// size; any range). For stratum `s ∈ 0..K` at frame `k`, a direction `n` uniform on the unit
-/// sphere of `ℝᵈ` and a fraction `q = (s + u) / K` (`u` uniform in `[0, 1)`) are drawn; the
+/// sphere of `ℝᵈ` (always `+1` for `d = 1`) and a fraction `q = (s + u) / K` (`u` uniform in `[0, 1)`) are drawn; the
 /// binary image is 1 at the `⌊q · W·H⌋` pixels whose projection `n · v(p)` is smallest (ties by
 /// pixel index), i.e. the pixels on one side of a hyperplane that holds a fraction `q` of the
 /// frame's values. That fraction being exact makes the figure comparable across sample spaces
 /// (unit vectors, points ∝ an image) and, for `d = 1`, with [`filtered_error`] on masks with exact
-/// frame histograms. The blur, EMA and RMS are those of [`filtered_error`]; the result is
+/// frame histograms (which sets `round(q · W·H)` pixels, so the two differ by at most one pixel per
+/// threshold). The blur, EMA and RMS are those of [`filtered_error`]; the result is
 /// dimensionless coverage, one entry per frame, the same for any thread count.
 ///
 /// Errors if the fields differ in size; panics on the options [`filtered_error`] panics on or on
