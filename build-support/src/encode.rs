@@ -1,9 +1,7 @@
-//! Turning a generated [`Volume`] or vector mask ([`VectorData`]: a [`stbn_gen::VectorVolume`] or
-//! a [`stbn_gen::filter_adapted::FilterAdaptedVectorVolume`]) into a `.stbn` blob: quantisation,
+//! Turning a generated [`Volume`] or [`VectorVolume`] into a `.stbn` blob: quantisation,
 //! compression, header.
 
-use stbn_gen::filter_adapted::VectorData;
-use stbn_gen::{SampleSpace, Volume};
+use stbn_gen::{SampleSpace, VectorVolume, Volume};
 use stbn_runtime::{Compression, Encoding, MaskHeader, Space, ValueMap, octahedral_encode};
 
 /// The miniz_oxide level used for [`Compression::Deflate`] (0–10; 9 is zlib's "best").
@@ -193,7 +191,7 @@ fn push_full_range(out: &mut Vec<u8>, t: f32, encoding: Encoding) {
 /// within half a bin of the generated value. The pdf channel is stored full-range,
 /// `(pdf - pdf_min) / (pdf_max - pdf_min)`, so the extremes are exact.
 pub fn encode_vector_payload(
-    volume: &(impl VectorData + ?Sized),
+    volume: &VectorVolume,
     layout: Layout,
     encoding: Encoding,
 ) -> (Vec<u8>, f32, f32) {
@@ -235,7 +233,7 @@ pub fn encode_vector_payload(
 /// Encodes a vector volume as a complete `.stbn` blob laid out as `layout` (see
 /// [`encode_vector_payload`]), compressed like [`encode_volume`].
 pub fn encode_vector(
-    volume: &(impl VectorData + ?Sized),
+    volume: &VectorVolume,
     layout: Layout,
     encoding: Encoding,
     compression: Compression,

@@ -7,7 +7,7 @@
 
 use stbn_gen::baselines::{self, BaselineKind};
 use stbn_gen::filter_adapted::{
-    FilterAdaptedSpec, FilterAdaptedSpecError, FilterAdaptedVectorVolume, generate_filter_adapted,
+    FilterAdaptedSpec, FilterAdaptedSpecError, generate_filter_adapted,
     generate_filter_adapted_vector,
 };
 use stbn_gen::{
@@ -97,13 +97,6 @@ pub enum Generated {
         /// Energy after each optimiser pass.
         trace: EnergyTrace,
     },
-    /// A filter-adapted vector mask and the optimiser's energy trace.
-    FilterAdaptedVector {
-        /// The values (and pdfs).
-        volume: FilterAdaptedVectorVolume,
-        /// Energy after each optimiser pass.
-        trace: EnergyTrace,
-    },
 }
 
 impl MaskEntry {
@@ -159,7 +152,7 @@ impl Recipe {
                         let (volume, trace) =
                             generate_filter_adapted_vector(&recipe.spec, space, &mut |_| {})
                                 .expect(valid);
-                        Generated::FilterAdaptedVector { volume, trace }
+                        Generated::Vector { volume, trace }
                     }
                 }
             }
@@ -179,9 +172,6 @@ impl Recipe {
         let blob = match &generated {
             Generated::Scalar(volume) => encode_volume(volume, encoding, compression),
             Generated::Vector { volume, .. } => {
-                encode_vector(volume, self.layout(), encoding, compression)
-            }
-            Generated::FilterAdaptedVector { volume, .. } => {
                 encode_vector(volume, self.layout(), encoding, compression)
             }
         };

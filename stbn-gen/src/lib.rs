@@ -30,9 +30,9 @@ pub mod volume;
 
 pub use baselines::{BaselineKind, generate_baseline};
 pub use filter_adapted::{
-    FilterAdaptedSpec, FilterAdaptedSpecError, FilterAdaptedVectorVolume, FilterCombination,
-    SpatialFilter, TemporalFilter, ValueKernel, VectorData, generate_filter_adapted,
-    generate_filter_adapted_vector, generate_filter_adapted_with_trace,
+    FilterAdaptedSpec, FilterAdaptedSpecError, FilterCombination, SpatialFilter, TemporalFilter,
+    ValueKernel, generate_filter_adapted, generate_filter_adapted_vector,
+    generate_filter_adapted_with_trace,
 };
 pub use importance::{ImageError, ImagePdf};
 pub use kernel::EnergyKernel;

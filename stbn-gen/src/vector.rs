@@ -254,6 +254,32 @@ pub struct VectorVolume {
 }
 
 impl VectorVolume {
+    /// The volume of `values` (index `((z · height + y) · width + x) · dims + c`, `dims` =
+    /// [`SampleSpace::dims`]) drawn from `space`, with each value's pdf where the space stores
+    /// one. For the generators of this crate (the swap and filter-adapted optimisers).
+    pub(crate) fn new(
+        (width, height, depth): (u32, u32, u32),
+        space: &SampleSpace,
+        values: Vec<f32>,
+    ) -> VectorVolume {
+        let dims = space.dims();
+        debug_assert_eq!(
+            values.len(),
+            width as usize * height as usize * depth as usize * dims
+        );
+        let pdf = space
+            .stores_pdf()
+            .then(|| values.par_chunks(dims).map(|v| space.pdf(v)).collect());
+        VectorVolume {
+            width,
+            height,
+            depth,
+            dims,
+            values,
+            pdf,
+        }
+    }
+
     /// Pixels per row.
     pub fn width(&self) -> u32 {
         self.width
@@ -420,20 +446,9 @@ pub fn generate_vector_with_progress(
         trace.points.push(point);
     }
 
-    let values = optimizer.into_values();
-    let pdf = spec
-        .space
-        .stores_pdf()
-        .then(|| values.par_chunks(dims).map(|v| spec.space.pdf(v)).collect());
+    let size = (spec.width, spec.height, spec.depth);
     Ok((
-        VectorVolume {
-            width: spec.width,
-            height: spec.height,
-            depth: spec.depth,
-            dims,
-            values,
-            pdf,
-        },
+        VectorVolume::new(size, &spec.space, optimizer.into_values()),
         trace,
     ))
 }

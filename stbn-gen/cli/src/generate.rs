@@ -65,9 +65,7 @@ pub fn run(manifest: &Path, out: &Path, format: OutputFormat) -> Result<()> {
         // stored component (the report's figures are per scalar field).
         let values = match &generated {
             Generated::Scalar(volume) => volume.values(),
-            Generated::Vector { .. } | Generated::FilterAdaptedVector { .. } => {
-                vector::channel_values(&mask, 0)
-            }
+            Generated::Vector { .. } => vector::channel_values(&mask, 0),
         };
         let field = Field::new(w as usize, h as usize, d as usize, &values)
             .expect("a mask's values are a field");
@@ -80,10 +78,7 @@ pub fn run(manifest: &Path, out: &Path, format: OutputFormat) -> Result<()> {
                 };
                 write_slices_png(&field, out, &entry.name, depth)?;
             }
-            (
-                OutputFormat::Png,
-                Generated::Vector { trace, .. } | Generated::FilterAdaptedVector { trace, .. },
-            ) => {
+            (OutputFormat::Png, Generated::Vector { trace, .. }) => {
                 let folder = out.join(&entry.name);
                 vector::write_png_slices(&mask, &folder, &entry.name)
                     .map_err(|e| mask_error(&e))?;
@@ -96,9 +91,7 @@ pub fn run(manifest: &Path, out: &Path, format: OutputFormat) -> Result<()> {
                 fs::create_dir_all(out).map_err(|e| format!("creating {}: {e}", out.display()))?;
                 let path = out.join(format!("{}.ktx2", entry.name));
                 fs::write(&path, file).map_err(|e| format!("writing {}: {e}", path.display()))?;
-                if let Generated::Vector { trace, .. }
-                | Generated::FilterAdaptedVector { trace, .. } = &generated
-                {
+                if let Generated::Vector { trace, .. } = &generated {
                     vector::write_sidecar(&mask, entry, trace, out).map_err(|e| mask_error(&e))?;
                     vector::write_trace(trace, out, &entry.name).map_err(|e| mask_error(&e))?;
                 }
@@ -161,7 +154,7 @@ fn make(entry: &MaskEntry) -> Result<(Generated, Vec<u8>)> {
                     &mut progress,
                 )
                 .map_err(|e| error(&e))?;
-                Generated::FilterAdaptedVector { volume, trace }
+                Generated::Vector { volume, trace }
             }
         };
         bar.finish_and_clear();
@@ -169,15 +162,12 @@ fn make(entry: &MaskEntry) -> Result<(Generated, Vec<u8>)> {
             Generated::Scalar(volume) => {
                 stbn_build_support::encode::encode_volume(volume, entry.encoding, entry.compression)
             }
-            Generated::Vector { .. } => unreachable!("filter-adapted masks"),
-            Generated::FilterAdaptedVector { volume, .. } => {
-                stbn_build_support::encode::encode_vector(
-                    volume,
-                    recipe.layout(),
-                    entry.encoding,
-                    entry.compression,
-                )
-            }
+            Generated::Vector { volume, .. } => stbn_build_support::encode::encode_vector(
+                volume,
+                recipe.layout(),
+                entry.encoding,
+                entry.compression,
+            ),
         };
         return Ok((generated, blob));
     }

@@ -514,134 +514,6 @@ pub fn generate_filter_adapted_with_trace(
 /// 3·10⁻⁴ cost about the same time, 3·10⁻³ a third more, no screening five times as much.
 pub const SCREEN: f64 = 1e-3;
 
-/// Vector-mask values for the optimiser, as [`VectorData`] reads them.
-pub trait VectorData {
-    /// Pixels per row.
-    fn width(&self) -> u32;
-    /// Rows per frame.
-    fn height(&self) -> u32;
-    /// Frames.
-    fn depth(&self) -> u32;
-    /// Components per value.
-    fn dims(&self) -> usize;
-    /// Every component, index `((z · height + y) · width + x) · dims + c`.
-    fn values(&self) -> &[f32];
-    /// Per pixel, the density the value was drawn from, where the space stores one.
-    fn pdf(&self) -> Option<&[f32]>;
-}
-
-impl VectorData for VectorVolume {
-    fn width(&self) -> u32 {
-        VectorVolume::width(self)
-    }
-    fn height(&self) -> u32 {
-        VectorVolume::height(self)
-    }
-    fn depth(&self) -> u32 {
-        VectorVolume::depth(self)
-    }
-    fn dims(&self) -> usize {
-        VectorVolume::dims(self)
-    }
-    fn values(&self) -> &[f32] {
-        VectorVolume::values(self)
-    }
-    fn pdf(&self) -> Option<&[f32]> {
-        VectorVolume::pdf(self)
-    }
-}
-
-/// A generated filter-adapted vector mask: `width × height × depth` values of `dims` components
-/// and, where the space stores one, the density of each value. The same accessors as
-/// [`VectorVolume`] (which only the swap optimiser's module can build), and both implement
-/// [`VectorData`] for encoders.
-#[derive(Clone, Debug, PartialEq)]
-pub struct FilterAdaptedVectorVolume {
-    width: u32,
-    height: u32,
-    depth: u32,
-    dims: usize,
-    values: Vec<f32>,
-    pdf: Option<Vec<f32>>,
-}
-
-impl FilterAdaptedVectorVolume {
-    /// Pixels per row.
-    pub fn width(&self) -> u32 {
-        self.width
-    }
-
-    /// Rows per frame.
-    pub fn height(&self) -> u32 {
-        self.height
-    }
-
-    /// Frames.
-    pub fn depth(&self) -> u32 {
-        self.depth
-    }
-
-    /// Components per value ([`SampleSpace::dims`]).
-    pub fn dims(&self) -> usize {
-        self.dims
-    }
-
-    /// Pixels of one frame.
-    pub fn slice_pixels(&self) -> usize {
-        self.width as usize * self.height as usize
-    }
-
-    /// Every component, index `((z · height + y) · width + x) · dims + c`.
-    pub fn values(&self) -> &[f32] {
-        &self.values
-    }
-
-    /// The value of pixel `(x, y)` of frame `z` (`dims` components). Panics outside the volume.
-    pub fn value(&self, x: u32, y: u32, z: u32) -> &[f32] {
-        assert!(
-            x < self.width && y < self.height && z < self.depth,
-            "outside the volume"
-        );
-        let i = (z as usize * self.height as usize + y as usize) * self.width as usize + x as usize;
-        &self.values[i * self.dims..(i + 1) * self.dims]
-    }
-
-    /// The values of frame `z` (`width · height · dims` components). Panics if `z >= depth`.
-    pub fn slice_values(&self, z: u32) -> &[f32] {
-        assert!(z < self.depth, "frame {z} of {}", self.depth);
-        let n = self.slice_pixels() * self.dims;
-        &self.values[z as usize * n..(z as usize + 1) * n]
-    }
-
-    /// Per pixel, the density the value was drawn from ([`SampleSpace::pdf`]), index
-    /// `(z · height + y) · width + x`: `Some` exactly when the space
-    /// [stores a pdf](SampleSpace::stores_pdf).
-    pub fn pdf(&self) -> Option<&[f32]> {
-        self.pdf.as_deref()
-    }
-}
-
-impl VectorData for FilterAdaptedVectorVolume {
-    fn width(&self) -> u32 {
-        self.width
-    }
-    fn height(&self) -> u32 {
-        self.height
-    }
-    fn depth(&self) -> u32 {
-        self.depth
-    }
-    fn dims(&self) -> usize {
-        self.dims
-    }
-    fn values(&self) -> &[f32] {
-        &self.values
-    }
-    fn pdf(&self) -> Option<&[f32]> {
-        self.pdf.as_deref()
-    }
-}
-
 /// Whether the space's components lie in `[0, 1)` (else in `[−1, 1]`).
 fn unit_interval(space: &SampleSpace) -> bool {
     matches!(space, SampleSpace::Vec { .. } | SampleSpace::ImagePoints(_))
@@ -795,7 +667,7 @@ pub fn generate_filter_adapted_vector(
     spec: &FilterAdaptedSpec,
     space: &SampleSpace,
     progress: &mut dyn FnMut(FilterAdaptedProgress),
-) -> Result<(FilterAdaptedVectorVolume, EnergyTrace), FilterAdaptedSpecError> {
+) -> Result<(VectorVolume, EnergyTrace), FilterAdaptedSpecError> {
     spec.validate_vector(space)?;
     let dims = space.dims();
     let (w, h, d) = (spec.width, spec.height, spec.depth);
@@ -816,20 +688,7 @@ pub fn generate_filter_adapted_vector(
                     .copy_from_slice(&src[i * dims..(i + 1) * dims]);
             }
         });
-    let pdf = space
-        .stores_pdf()
-        .then(|| out.par_chunks(dims).map(|v| space.pdf(v)).collect());
-    Ok((
-        FilterAdaptedVectorVolume {
-            width: w,
-            height: h,
-            depth: d,
-            dims,
-            values: out,
-            pdf,
-        },
-        trace,
-    ))
+    Ok((VectorVolume::new((w, h, d), space, out), trace))
 }
 
 /// Everything about a generation the optimiser can check about itself, for tests: an optimiser
