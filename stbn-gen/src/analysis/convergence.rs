@@ -115,20 +115,44 @@ pub fn convergence(
     integrand: Integrand,
     options: ConvergenceOptions,
 ) -> Convergence {
+    estimator_rmse(
+        field.slice_pixels(),
+        field.depth(),
+        options,
+        integrand.integral(),
+        |z, pixels| {
+            field.slice(z)[pixels]
+                .iter()
+                .map(move |&x| integrand.eval(x))
+        },
+    )
+}
+
+/// The Monte Carlo and EMA error curves ([module docs](self)) of `pixels` pixels over frames
+/// `0..depth`, where `samples(z, range)` yields `f` at frame `z` for the pixels in `range`, and
+/// `exact` is the integral. Shared by [`convergence`] and
+/// [`convergence_2d`](super::convergence2d::convergence_2d). Pixel chunks run in parallel and
+/// are summed in order: the same bits for any thread count.
+pub(super) fn estimator_rmse<I: Iterator<Item = f64>>(
+    pixels: usize,
+    depth: usize,
+    options: ConvergenceOptions,
+    exact: f64,
+    samples: impl Fn(usize, std::ops::Range<usize>) -> I + Sync,
+) -> Convergence {
     /// Pixels per parallel task.
     const CHUNK: usize = 1024;
     let ConvergenceOptions {
-        samples,
+        samples: count,
         start,
         alpha,
     } = options;
-    assert!(samples > 0, "at least one sample");
+    assert!(count > 0, "at least one sample");
     assert!(
         alpha > 0.0 && alpha <= 1.0,
         "alpha {alpha} must be in (0, 1]"
     );
-    let (n, depth) = (field.slice_pixels(), field.depth());
-    let exact = integrand.integral();
+    let n = pixels;
     let starts: Vec<usize> = (0..n).step_by(CHUNK).collect();
     let parts: Vec<Vec<f64>> = starts
         .into_par_iter()
@@ -136,14 +160,13 @@ pub fn convergence(
             let pixels = first..(first + CHUNK).min(n);
             let mut mean = vec![0.0; pixels.len()];
             let mut ema = vec![0.0; pixels.len()];
-            // Squared errors: Monte Carlo in 0..samples, EMA in samples..2·samples.
-            let mut squares = vec![0.0; 2 * samples];
-            for k in 0..samples {
-                let slice = &field.slice((start + k) % depth)[pixels.clone()];
+            // Squared errors: Monte Carlo in 0..count, EMA in count..2·count.
+            let mut squares = vec![0.0; 2 * count];
+            for k in 0..count {
+                let values = samples((start + k) % depth, pixels.clone());
                 let weight = 1.0 / (k + 1) as f64;
                 let (mut mc, mut exp) = (0.0, 0.0);
-                for ((m, e), &x) in mean.iter_mut().zip(&mut ema).zip(slice) {
-                    let f = integrand.eval(x);
+                for ((m, e), f) in mean.iter_mut().zip(&mut ema).zip(values) {
                     *m += (f - *m) * weight;
                     *e = if k == 0 {
                         f
@@ -154,19 +177,19 @@ pub fn convergence(
                     exp += (*e - exact) * (*e - exact);
                 }
                 squares[k] = mc;
-                squares[samples + k] = exp;
+                squares[count + k] = exp;
             }
             squares
         })
         .collect();
-    let mut total = vec![0.0; 2 * samples];
+    let mut total = vec![0.0; 2 * count];
     for part in &parts {
         total.iter_mut().zip(part).for_each(|(t, p)| *t += p);
     }
     let rmse: Vec<f64> = total.iter().map(|s| (s / n as f64).sqrt()).collect();
     Convergence {
-        monte_carlo: rmse[..samples].to_vec(),
-        ema: rmse[samples..].to_vec(),
+        monte_carlo: rmse[..count].to_vec(),
+        ema: rmse[count..].to_vec(),
     }
 }
 

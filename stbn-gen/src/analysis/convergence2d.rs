@@ -12,9 +12,7 @@
 //! A 2D integrand with an edge across both axes (the disc, the diagonal step) shows whether the
 //! pairs are well spread in the plane, which two well-spread 1D sequences do not guarantee.
 
-use rayon::prelude::*;
-
-use super::convergence::{Convergence, ConvergenceOptions};
+use super::convergence::{Convergence, ConvergenceOptions, estimator_rmse};
 use super::{Field, FieldError};
 
 /// Radius of [`Integrand2D::Disc`].
@@ -131,18 +129,6 @@ pub fn convergence_2d(
     integrand: Integrand2D,
     options: ConvergenceOptions,
 ) -> Result<Convergence, FieldError> {
-    /// Pixels per parallel task.
-    const CHUNK: usize = 1024;
-    let ConvergenceOptions {
-        samples,
-        start,
-        alpha,
-    } = options;
-    assert!(samples > 0, "at least one sample");
-    assert!(
-        alpha > 0.0 && alpha <= 1.0,
-        "alpha {alpha} must be in (0, 1]"
-    );
     let size = |f: &Field| (f.width(), f.height(), f.depth());
     if size(xs) != size(ys) {
         return Err(FieldError::Mismatch {
@@ -150,48 +136,16 @@ pub fn convergence_2d(
             second: size(ys),
         });
     }
-    let (n, depth) = (xs.slice_pixels(), xs.depth());
-    let exact = integrand.integral();
-    let starts: Vec<usize> = (0..n).step_by(CHUNK).collect();
-    let parts: Vec<Vec<f64>> = starts
-        .into_par_iter()
-        .map(|first| {
-            let pixels = first..(first + CHUNK).min(n);
-            let mut mean = vec![0.0; pixels.len()];
-            let mut ema = vec![0.0; pixels.len()];
-            // Squared errors: Monte Carlo in 0..samples, EMA in samples..2·samples.
-            let mut squares = vec![0.0; 2 * samples];
-            for k in 0..samples {
-                let z = (start + k) % depth;
-                let (sx, sy) = (&xs.slice(z)[pixels.clone()], &ys.slice(z)[pixels.clone()]);
-                let weight = 1.0 / (k + 1) as f64;
-                let (mut mc, mut exp) = (0.0, 0.0);
-                for (((m, e), &x), &y) in mean.iter_mut().zip(&mut ema).zip(sx).zip(sy) {
-                    let f = integrand.eval(x, y);
-                    *m += (f - *m) * weight;
-                    *e = if k == 0 {
-                        f
-                    } else {
-                        alpha * f + (1.0 - alpha) * *e
-                    };
-                    mc += (*m - exact) * (*m - exact);
-                    exp += (*e - exact) * (*e - exact);
-                }
-                squares[k] = mc;
-                squares[samples + k] = exp;
-            }
-            squares
-        })
-        .collect();
-    let mut total = vec![0.0; 2 * samples];
-    for part in &parts {
-        total.iter_mut().zip(part).for_each(|(t, p)| *t += p);
-    }
-    let rmse: Vec<f64> = total.iter().map(|s| (s / n as f64).sqrt()).collect();
-    Ok(Convergence {
-        monte_carlo: rmse[..samples].to_vec(),
-        ema: rmse[samples..].to_vec(),
-    })
+    Ok(estimator_rmse(
+        xs.slice_pixels(),
+        xs.depth(),
+        options,
+        integrand.integral(),
+        |z, pixels| {
+            let (sx, sy) = (&xs.slice(z)[pixels.clone()], &ys.slice(z)[pixels]);
+            sx.iter().zip(sy).map(move |(&x, &y)| integrand.eval(x, y))
+        },
+    ))
 }
 
 #[cfg(test)]
