@@ -3,7 +3,7 @@
 //! and every number as CSV in `csv/`.
 
 mod csv;
-mod plots;
+pub(crate) mod plots;
 mod spectrum_images;
 
 use std::fmt::Write as _;

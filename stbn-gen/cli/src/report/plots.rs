@@ -150,13 +150,18 @@ pub struct Plot {
 pub fn write(plot: &Plot, path: &Path) -> Result<()> {
     let pixels = render(plot, font_available())
         .map_err(|e| format!("cannot draw {}: {e}", path.display()))?;
+    write_rgb_png(&pixels, SIZE, path)
+}
+
+/// Writes row-major 8-bit RGB `pixels` of `(width, height)` to `path` as a PNG.
+pub fn write_rgb_png(pixels: &[u8], (width, height): (u32, u32), path: &Path) -> Result<()> {
     let failed = |e: &dyn std::fmt::Display| format!("cannot write {}: {e}", path.display());
     let file = File::create(path).map_err(|e| failed(&e))?;
-    let mut encoder = png::Encoder::new(BufWriter::new(file), SIZE.0, SIZE.1);
+    let mut encoder = png::Encoder::new(BufWriter::new(file), width, height);
     encoder.set_color(png::ColorType::Rgb);
     encoder.set_depth(png::BitDepth::Eight);
     let mut writer = encoder.write_header().map_err(|e| failed(&e))?;
-    writer.write_image_data(&pixels).map_err(|e| failed(&e))?;
+    writer.write_image_data(pixels).map_err(|e| failed(&e))?;
     writer.finish().map_err(|e| failed(&e))?;
     Ok(())
 }

@@ -2,60 +2,20 @@
 //! labelled, on linear or log axes whose ranges follow the data. RGB PNGs drawn with `plotters`
 //! into a buffer and encoded with `png`, like the report's plots.
 //!
-//! Text needs a TrueType font: `$STBN_PLOT_FONT`, else the first of [`FONT_PATHS`] that loads;
-//! without one the plot is drawn without text, and tradeoff.md states what each axis and colour
-//! is either way.
+//! Text needs a TrueType font, found as the report's plots find theirs ([`font_available`]);
+//! without one the plot is drawn without text, and tradeoff.md states what each axis and colour is
+//! either way. Series colours are the report's [`PALETTE`].
 
-use std::fs::{self, File};
-use std::io::BufWriter;
-use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
+use std::path::Path;
 
 use plotters::prelude::*;
-use plotters::style::register_font;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use crate::Result;
+use crate::report::plots::{PALETTE, font_available, write_rgb_png};
 
 /// Plot size in pixels.
 pub const SIZE: (u32, u32) = (720, 440);
-
-/// Series colours with their names, series `i` uses entry `i % len`.
-pub const PALETTE: [(&str, RGBColor); 6] = [
-    ("blue", RGBColor(31, 119, 180)),
-    ("orange", RGBColor(255, 127, 14)),
-    ("green", RGBColor(44, 160, 44)),
-    ("red", RGBColor(214, 39, 40)),
-    ("purple", RGBColor(148, 103, 189)),
-    ("brown", RGBColor(140, 86, 75)),
-];
-
-/// Fonts tried after `$STBN_PLOT_FONT` (the report's list: DejaVu Sans and Liberation Sans
-/// where Linux distributions install them, then Arial on macOS and Windows).
-pub const FONT_PATHS: [&str; 6] = [
-    "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
-    "/usr/share/fonts/TTF/DejaVuSans.ttf",
-    "/usr/share/fonts/dejavu-sans-fonts/DejaVuSans.ttf",
-    "/usr/share/fonts/truetype/liberation/LiberationSans-Regular.ttf",
-    "/System/Library/Fonts/Supplemental/Arial.ttf",
-    "C:\\Windows\\Fonts\\arial.ttf",
-];
-
-/// Whether a font for the text is registered (tried once per process).
-fn font_available() -> bool {
-    static AVAILABLE: OnceLock<bool> = OnceLock::new();
-    *AVAILABLE.get_or_init(|| {
-        let chosen = std::env::var_os("STBN_PLOT_FONT").map(PathBuf::from);
-        chosen
-            .into_iter()
-            .chain(FONT_PATHS.iter().map(PathBuf::from))
-            .filter_map(|path| fs::read(path).ok())
-            .any(|bytes| {
-                let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
-                register_font("sans-serif", FontStyle::Normal, bytes).is_ok()
-            })
-    })
-}
 
 /// One axis: its title (with units) and whether it is logarithmic.
 #[derive(Clone, Debug, PartialEq)]
@@ -199,15 +159,7 @@ impl Chart {
 pub fn write(chart: &Chart, path: &Path) -> Result<()> {
     let pixels = render(chart, font_available())
         .map_err(|e| format!("cannot draw {}: {e}", path.display()))?;
-    let failed = |e: &dyn std::fmt::Display| format!("cannot write {}: {e}", path.display());
-    let file = File::create(path).map_err(|e| failed(&e))?;
-    let mut encoder = png::Encoder::new(BufWriter::new(file), SIZE.0, SIZE.1);
-    encoder.set_color(png::ColorType::Rgb);
-    encoder.set_depth(png::BitDepth::Eight);
-    let mut writer = encoder.write_header().map_err(|e| failed(&e))?;
-    writer.write_image_data(&pixels).map_err(|e| failed(&e))?;
-    writer.finish().map_err(|e| failed(&e))?;
-    Ok(())
+    write_rgb_png(&pixels, SIZE, path)
 }
 
 type Points = Vec<(f64, f64, Option<String>)>;
