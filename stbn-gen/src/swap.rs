@@ -656,7 +656,8 @@ struct Tile {
 /// wide, near `size / target`; 1 when the axis is too short for two. Two tiles of one colour are
 /// then separated by more than twice the reach: neither reads a pixel the other writes, and the
 /// neighbours whose energies they update (within the reach of a swapped pixel) are distinct.
-fn tiles_along(size: u32, reach: u32, target: u32) -> u32 {
+/// Shared with the filter-adapted optimiser, whose tiles follow the same rule.
+pub(crate) fn tiles_along(size: u32, reach: u32, target: u32) -> u32 {
     let max_tiles = size / (2 * reach).max(1);
     let want = (size / target.max(1)).max(2).min(max_tiles);
     if want >= 2 { want & !1 } else { 1 }
@@ -980,12 +981,19 @@ mod tests {
 
     #[test]
     fn tiles_keep_same_colour_apart() {
-        for size in 1..100 {
-            for reach in 0..8 {
-                let n = tiles_along(size, reach, TILE_TARGET);
-                assert!(n == 1 || n % 2 == 0);
-                if n > 1 {
-                    assert!(size / n >= 2 * reach, "{size} {reach} {n}");
+        // This optimiser's target and the filter-adapted optimiser's.
+        let targets = [
+            TILE_TARGET,
+            crate::filter_adapted::optimizer::Optimizer::TILE_TARGET,
+        ];
+        for target in targets {
+            for size in 1..100 {
+                for reach in 0..8 {
+                    let n = tiles_along(size, reach, target);
+                    assert!(n == 1 || n % 2 == 0);
+                    if n > 1 {
+                        assert!(size / n >= 2 * reach, "{size} {reach} {n}");
+                    }
                 }
             }
         }

@@ -54,7 +54,7 @@ use rand::{Rng, RngExt};
 use rayon::prelude::*;
 
 use super::filters::{Kernel, ScanKernel};
-use crate::swap::keyed_rng;
+use crate::swap::{keyed_rng, tiles_along};
 
 /// Domain tags of this optimiser's random streams (distinct from the swap optimiser's).
 pub(crate) mod stream {
@@ -97,14 +97,6 @@ pub(crate) enum Energy {
         /// `φ_c(x)`, index `c · pixels + x`: integers, exact in `f64`.
         phi: Vec<f64>,
     },
-}
-
-/// Tiles along an axis of `size` pixels: an even count of tiles at least `2 · reach` wide, near
-/// `size / target`; 1 when the axis is too short for two.
-fn tiles_along(size: u32, reach: u32, target: u32) -> u32 {
-    let max_tiles = size / (2 * reach).max(1);
-    let want = (size / target.max(1)).max(2).min(max_tiles);
-    if want >= 2 { want & !1 } else { 1 }
 }
 
 /// One tile of a pass and the region around it that it reads and writes.
@@ -989,19 +981,6 @@ impl Optimizer {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn tiles_keep_same_colour_apart() {
-        for size in 1..100 {
-            for reach in 0..8 {
-                let n = tiles_along(size, reach, Optimizer::TILE_TARGET);
-                assert!(n == 1 || n % 2 == 0);
-                if n > 1 {
-                    assert!(size / n >= 2 * reach, "{size} {reach} {n}");
-                }
-            }
-        }
-    }
 
     #[test]
     fn window_dot_is_exact() {
