@@ -80,16 +80,8 @@ impl SpatialFilter {
     /// `None` if the parameters are in range, else the problem.
     pub(crate) fn check(&self) -> Option<String> {
         match *self {
-            SpatialFilter::Gaussian { sigma } => {
-                (!(sigma.is_finite() && sigma > 0.0 && sigma <= Self::MAX_SIGMA)).then(|| {
-                    format!(
-                        "Gaussian sigma is {sigma}; it must be finite, > 0 and <= {}",
-                        Self::MAX_SIGMA
-                    )
-                })
-            }
-            SpatialFilter::Box { size } => (!(1..=Self::MAX_SIZE).contains(&size))
-                .then(|| format!("Box size is {size}; it must be in 1..={}", Self::MAX_SIZE)),
+            SpatialFilter::Gaussian { sigma } => check_gaussian(sigma, Self::MAX_SIGMA),
+            SpatialFilter::Box { size } => check_box(size, Self::MAX_SIZE),
             SpatialFilter::Binomial { order } => {
                 (!(1..=Self::MAX_ORDER).contains(&order)).then(|| {
                     format!(
@@ -100,6 +92,17 @@ impl SpatialFilter {
             }
         }
     }
+}
+
+/// The problem with a Gaussian filter's `sigma`, if it is not finite, `> 0` and `<= max`.
+fn check_gaussian(sigma: f64, max: f64) -> Option<String> {
+    (!(sigma.is_finite() && sigma > 0.0 && sigma <= max))
+        .then(|| format!("Gaussian sigma is {sigma}; it must be finite, > 0 and <= {max}"))
+}
+
+/// The problem with a box filter's `size`, if it is not in `1..=max`.
+fn check_box(size: u32, max: u32) -> Option<String> {
+    (!(1..=max).contains(&size)).then(|| format!("Box size is {size}; it must be in 1..={max}"))
 }
 
 impl fmt::Display for SpatialFilter {
@@ -173,16 +176,8 @@ impl TemporalFilter {
                 .then(|| format!("{name} is {value}; it must be in [{min}, 1]"))
         };
         match *self {
-            TemporalFilter::Gaussian { sigma } => {
-                (!(sigma.is_finite() && sigma > 0.0 && sigma <= Self::MAX_SIGMA)).then(|| {
-                    format!(
-                        "Gaussian sigma is {sigma}; it must be finite, > 0 and <= {}",
-                        Self::MAX_SIGMA
-                    )
-                })
-            }
-            TemporalFilter::Box { size } => (!(1..=Self::MAX_SIZE).contains(&size))
-                .then(|| format!("Box size is {size}; it must be in 1..={}", Self::MAX_SIZE)),
+            TemporalFilter::Gaussian { sigma } => check_gaussian(sigma, Self::MAX_SIGMA),
+            TemporalFilter::Box { size } => check_box(size, Self::MAX_SIZE),
             TemporalFilter::Exponential { alpha } => {
                 unit("Exponential alpha", alpha, Self::MIN_ALPHA)
             }
