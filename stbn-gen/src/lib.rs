@@ -45,10 +45,12 @@ pub use vector::{
 pub use void_cluster::Progress;
 pub use volume::Volume;
 
-/// Version of the generator's output: bumped whenever [`generate`] can return a different
-/// [`Volume`] for an equal [`MaskSpec`] (an algorithm, tie-break, kernel or RNG change). Caches of
-/// generated masks include it in their keys; a test pins the output of a reference spec to it.
-pub const GENERATOR_VERSION: u32 = 1;
+/// Version of the generator's output: bumped whenever [`generate`], [`generate_vector`] or
+/// [`generate_filter_adapted`] can return a different mask for an equal spec (an algorithm,
+/// tie-break, kernel, arithmetic or RNG change). Caches of generated masks include it in their
+/// keys; tests pin the output of reference specs to it. Version 2: the vector energy's value
+/// factor is computed in single precision.
+pub const GENERATOR_VERSION: u32 = 2;
 
 /// Generates the scalar mask `spec` describes.
 ///

@@ -487,3 +487,30 @@ fn volume_accessors_agree() {
     assert_eq!(volume.slice_values(1), &volume.values()[40..80]);
     assert_eq!(volume.pdf(), None);
 }
+
+/// FNV-1a over the values' little-endian bits: a digest stable across Rust releases.
+fn value_digest(volume: &VectorVolume) -> u64 {
+    volume
+        .values()
+        .iter()
+        .flat_map(|v| v.to_bits().to_le_bytes())
+        .fold(0xcbf2_9ce4_8422_2325, |h, b| {
+            (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+        })
+}
+
+#[test]
+fn vector_output_is_pinned_to_the_generator_version() {
+    // If this fails, the vector generator's output changed: bump `GENERATOR_VERSION` (so caches
+    // regenerate) and record the new digests here.
+    let pinned: [(u32, [u64; 2]); 1] = [(2, [0xe771_d128_545c_0a6e, 0x1e35_58a8_091d_8515])];
+    let digests = [SampleSpace::Vec { dims: 2 }, SampleSpace::UnitVec3].map(|space| {
+        let spec = VectorSpec::new(16, 16, 8, 2026, space).with_swaps_per_pixel(4.0);
+        value_digest(&generate_vector(&spec).unwrap().0)
+    });
+    let expected = pinned
+        .iter()
+        .find(|(version, _)| *version == stbn_gen::GENERATOR_VERSION)
+        .map(|&(_, digests)| digests);
+    assert_eq!(Some(digests), expected, "digests {digests:#018x?}");
+}
