@@ -49,8 +49,9 @@ pub use volume::Volume;
 /// [`generate_filter_adapted`] can return a different mask for an equal spec (an algorithm,
 /// tie-break, kernel, arithmetic or RNG change). Caches of generated masks include it in their
 /// keys; tests pin the output of reference specs to it. Version 2: the vector energy's value
-/// factor is computed in single precision.
-pub const GENERATOR_VERSION: u32 = 2;
+/// factor is computed in single precision; 3: vector swap partners are the nearest in value of a
+/// few candidates, in tiles of 16 pixels.
+pub const GENERATOR_VERSION: u32 = 3;
 
 /// Generates the scalar mask `spec` describes.
 ///

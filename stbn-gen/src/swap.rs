@@ -43,17 +43,28 @@
 //!
 //! A *pass* proposes, in every slice, one swap per pixel: the slice is cut into rectangular tiles
 //! (about [`TILE_TARGET`] pixels wide, never less than twice the kernel's reach, at a seeded
-//! random offset per pass), each pixel of a tile proposes a swap with a uniformly drawn other
-//! pixel of the same tile, and the pixels propose in a seeded random order. Tiles are coloured in
+//! random offset per pass), and the pixels of a tile propose in a seeded random order. A pixel
+//! draws a few other pixels of its tile uniformly (with replacement; one in the first passes, up
+//! to [`PARTNER_CANDIDATES`] later, see [`partner_candidates`]) and proposes a swap with the one
+//! whose value is nearest its own. Tiles are coloured in
 //! a 2 × 2 pattern; the tiles of one colour run in parallel. Two tiles of one colour are separated
 //! by a whole tile, at least twice the reach wide, and a tile covers its columns in every slice,
 //! so no tile reads a value another one writes, and the neighbour energies two tiles update are
 //! distinct: the result is the same for any number of threads. Each tile draws from its own
 //! ChaCha8 stream keyed by (seed, pass, tile), and the energy deltas are added in tile order.
 //!
-//! Small tiles converge fastest for a given number of proposals (measured at 64×64×32, 32
-//! passes: tiles of 8, 16 and 32 pixels reached 3.2917, 3.2939 and 3.2949 energy per pixel for
-//! Vec2 from the same start), because a value's best positions are near where it already is.
+//! Why the nearest value of a few candidates: swaps that lower the energy are rare and mostly
+//! between similar values. Counted over passes 64–128 of uniform proposals (64×64×32 Vec2), the
+//! 4.7% of proposals whose values lay within 0.15 of each other made 77% of the accepted swaps;
+//! for UnitVec3 the 5.5% within a chord of 0.5 made about 75%. Proposing the nearest of 16
+//! candidates (in tiles of 16 rather than 8 pixels, so there are close values to find; the count
+//! ramps up from 1 over the first 30 passes, see [`partner_candidates`]) did in 128 passes (37 s
+//! at 128×128×64) what uniform partners did not reach in 1024 (267 s): Vec2 filtered error 0.00835
+//! against 0.00845, component 0 spatial low band 0.0152 against 0.0194, energy within 0.02%
+//! (BENCHMARKS.md, "Vector masks"). Tried and dropped: a window of neighbours in the Hilbert order
+//! of the values (converged faster at first, stalled 0.2% higher), 32 or 64 candidates (no better
+//! per pass, slower), partners nearer in space, proposals from the highest-energy pixels, a
+//! screen on the nearest taps, and long-range partners.
 
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicU32, AtomicU64, Ordering::Relaxed};
@@ -65,8 +76,26 @@ use rayon::prelude::*;
 
 use crate::vector::{TracePoint, VectorSpec};
 
-/// Preferred tile side in pixels (tiles are never narrower than twice the kernel's reach).
-pub const TILE_TARGET: u32 = 8;
+/// Preferred tile side in pixels (tiles are never narrower than twice the kernel's reach): 16
+/// gives [`PARTNER_CANDIDATES`] 255 pixels to choose from and still 4 tiles per colour at
+/// 64 × 64, enough for the two cores here.
+pub const TILE_TARGET: u32 = 16;
+
+/// Candidates a proposing pixel draws from its tile once the optimiser is under way; it proposes
+/// the one whose value is nearest its own ([module docs](self)). Pass `p` draws
+/// `min(1 + p / 2, PARTNER_CANDIDATES)` ([`partner_candidates`]): a uniform partner first.
+pub const PARTNER_CANDIDATES: u32 = 16;
+
+/// The candidates pass `pass` draws per proposal: one more every two passes, up to `cap`.
+///
+/// Early passes make the large moves a poor start needs, later ones the fine ones. From white
+/// noise (32×32×16 Vec1, 16 passes) 16 candidates from the first pass left the spatial low band
+/// at 0.397 against 0.071 for uniform partners; the ramp reached 0.069. From the default start it
+/// also ends lower than 16 from the first pass (64×64×32, 128 passes: Vec2 3.27557 against
+/// 3.27619, UnitVec3 1.60074 against 1.60173).
+pub fn partner_candidates(pass: u64, cap: u32) -> u32 {
+    (1 + pass / 2).min(u64::from(cap.max(1))) as u32
+}
 
 /// Partial sums of [`lane_sum`] (`f64` lanes of an AVX2 register).
 const LANES: usize = 4;
@@ -735,6 +764,16 @@ pub(crate) fn tiles_along(size: u32, reach: u32, target: u32) -> u32 {
     if want >= 2 { want & !1 } else { 1 }
 }
 
+/// What every tile of one pass needs besides its own coordinates.
+struct PassPlan {
+    seed: u64,
+    pass: u64,
+    /// Share of each tile's pixels that propose, in `[0, 1]`.
+    fraction: f64,
+    /// Candidates per proposal in this pass ([`partner_candidates`]).
+    partner_candidates: u32,
+}
+
 /// Totals of one tile's work.
 #[derive(Clone, Copy, Default)]
 struct TileResult {
@@ -758,6 +797,7 @@ pub struct SwapOptimizer {
     attempted: u64,
     accepted: u64,
     tile_target: u32,
+    partner_candidates: u32,
 }
 
 impl SwapOptimizer {
@@ -790,6 +830,7 @@ impl SwapOptimizer {
             attempted: 0,
             accepted: 0,
             tile_target: TILE_TARGET,
+            partner_candidates: PARTNER_CANDIDATES,
         }
     }
 
@@ -798,6 +839,13 @@ impl SwapOptimizer {
     /// default is [`TILE_TARGET`].
     pub fn with_tile_target(mut self, pixels: u32) -> SwapOptimizer {
         self.tile_target = pixels.max(1);
+        self
+    }
+
+    /// The same optimiser drawing at most `count` partner candidates per proposal (1: a uniform
+    /// partner). For experiments; the default is [`PARTNER_CANDIDATES`].
+    pub fn with_partner_candidates(mut self, count: u32) -> SwapOptimizer {
+        self.partner_candidates = count.max(1);
         self
     }
 
@@ -944,11 +992,17 @@ impl SwapOptimizer {
                 .copied()
                 .filter(|t| t.colour == colour)
                 .collect();
+            let plan = PassPlan {
+                seed: self.seed,
+                pass,
+                fraction,
+                partner_candidates: partner_candidates(pass, self.partner_candidates),
+            };
             let results: Vec<TileResult> = {
-                let (kernel, shared, seed) = (&self.kernel, self.shared(), self.seed);
+                let (kernel, shared) = (&self.kernel, self.shared());
                 batch
                     .par_iter()
-                    .map(|tile| kernel.run_tile_fastest(&shared, tile, seed, pass, fraction))
+                    .map(|tile| kernel.run_tile_fastest(&shared, tile, &plan))
                     .collect()
             };
             for r in results {
@@ -972,49 +1026,28 @@ impl SwapKernel {
     /// and performs the same IEEE operations in the same order (Rust never fuses a multiply and
     /// an add), so both give identical bits (tested); it is 1.3–1.45× faster (64×64×32, 32 swaps
     /// per pixel: Vec2 1.16–1.20 s against 1.67–1.72 s, UnitVec3 0.94 s against 1.22–1.27 s).
-    fn run_tile_fastest(
-        &self,
-        shared: &Shared,
-        tile: &Tile,
-        seed: u64,
-        pass: u64,
-        fraction: f64,
-    ) -> TileResult {
+    fn run_tile_fastest(&self, shared: &Shared, tile: &Tile, plan: &PassPlan) -> TileResult {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: `run_tile_avx2` only requires AVX2, which the CPU was just checked to have.
-            return unsafe { self.run_tile_avx2(shared, tile, seed, pass, fraction) };
+            return unsafe { self.run_tile_avx2(shared, tile, plan) };
         }
-        self.run_tile_dims(shared, tile, seed, pass, fraction)
+        self.run_tile_dims(shared, tile, plan)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn run_tile_avx2(
-        &self,
-        shared: &Shared,
-        tile: &Tile,
-        seed: u64,
-        pass: u64,
-        fraction: f64,
-    ) -> TileResult {
-        self.run_tile_dims(shared, tile, seed, pass, fraction)
+    fn run_tile_avx2(&self, shared: &Shared, tile: &Tile, plan: &PassPlan) -> TileResult {
+        self.run_tile_dims(shared, tile, plan)
     }
 
     #[inline(always)]
-    fn run_tile_dims(
-        &self,
-        shared: &Shared,
-        tile: &Tile,
-        seed: u64,
-        pass: u64,
-        fraction: f64,
-    ) -> TileResult {
+    fn run_tile_dims(&self, shared: &Shared, tile: &Tile, plan: &PassPlan) -> TileResult {
         match self.dims {
-            1 => self.run_tile::<1>(shared, tile, seed, pass, fraction),
-            2 => self.run_tile::<2>(shared, tile, seed, pass, fraction),
-            3 => self.run_tile::<3>(shared, tile, seed, pass, fraction),
-            _ => self.run_tile::<4>(shared, tile, seed, pass, fraction),
+            1 => self.run_tile::<1>(shared, tile, plan),
+            2 => self.run_tile::<2>(shared, tile, plan),
+            3 => self.run_tile::<3>(shared, tile, plan),
+            _ => self.run_tile::<4>(shared, tile, plan),
         }
     }
 
@@ -1024,18 +1057,16 @@ impl SwapKernel {
         &self,
         shared: &Shared,
         tile: &Tile,
-        seed: u64,
-        pass: u64,
-        fraction: f64,
+        plan: &PassPlan,
     ) -> TileResult {
         let mut result = TileResult::default();
         let n = tile.w * tile.h;
         if n < 2 {
             return result;
         }
-        let mut rng = keyed_rng(seed, stream::TILE, pass, tile.id);
+        let mut rng = keyed_rng(plan.seed, stream::TILE, plan.pass, tile.id);
         let mut scratch = Scratch::new(self);
-        let count = ((fraction * f64::from(n)).round() as usize).min(n as usize);
+        let count = ((plan.fraction * f64::from(n)).round() as usize).min(n as usize);
         let mut order: Vec<u32> = (0..n).collect();
         let pixel = |i: u32| {
             (
@@ -1043,13 +1074,42 @@ impl SwapKernel {
                 (tile.y0 + i / tile.w) % self.height,
             )
         };
+        // Each tile pixel's index within its slice.
+        let in_slice: Vec<usize> = (0..n)
+            .map(|i| {
+                let (x, y) = pixel(i);
+                y as usize * self.width as usize + x as usize
+            })
+            .collect();
         for z in 0..self.depth {
+            let base = z as usize * self.slice_pixels();
             order.shuffle(&mut rng);
             for &i in &order[..count] {
-                // A uniform partner among the other n − 1 pixels (multiply-shift, bias < 2⁻¹⁶).
-                let mut j = ((u64::from(rng.next_u32()) * u64::from(n - 1)) >> 32) as u32;
-                if j >= i {
-                    j += 1;
+                // A uniform other pixel of the tile (multiply-shift, bias < 2⁻¹⁶).
+                let mut draw = || {
+                    let j = ((u64::from(rng.next_u32()) * u64::from(n - 1)) >> 32) as u32;
+                    if j >= i { j + 1 } else { j }
+                };
+                // The candidate whose value is nearest but not equal (swapping equal values
+                // changes nothing, and spaces like ±1 have many), the first of equals.
+                let mut j = draw();
+                if plan.partner_candidates > 1 {
+                    let value = shared.value::<D>(base + in_slice[i as usize]);
+                    let distance = |j: u32| {
+                        let d = squared_distance(
+                            &value,
+                            &shared.value::<D>(base + in_slice[j as usize]),
+                        );
+                        if d > 0.0 { d } else { f32::INFINITY }
+                    };
+                    let mut nearest = distance(j);
+                    for _ in 1..plan.partner_candidates {
+                        let candidate = draw();
+                        let d = distance(candidate);
+                        if d < nearest {
+                            (j, nearest) = (candidate, d);
+                        }
+                    }
                 }
                 result.attempted += 1;
                 if let Some(delta) = self.attempt::<D>(shared, z, pixel(i), pixel(j), &mut scratch)
@@ -1173,14 +1233,17 @@ mod tests {
                 id: 0,
             };
             for pass in 0..3 {
+                let plan = PassPlan {
+                    seed: 5,
+                    pass,
+                    fraction: 1.0,
+                    partner_candidates: PARTNER_CANDIDATES,
+                };
                 let a = portable
                     .kernel
-                    .run_tile_dims(&portable.shared(), &tile, 5, pass, 1.0);
+                    .run_tile_dims(&portable.shared(), &tile, &plan);
                 // SAFETY: the CPU has AVX2 (asserted above).
-                let b = unsafe {
-                    avx2.kernel
-                        .run_tile_avx2(&avx2.shared(), &tile, 5, pass, 1.0)
-                };
+                let b = unsafe { avx2.kernel.run_tile_avx2(&avx2.shared(), &tile, &plan) };
                 assert!(a.accepted > 0, "{space:?}: no swap accepted");
                 assert_eq!((a.attempted, a.accepted), (b.attempted, b.accepted));
                 assert_eq!(a.delta.to_bits(), b.delta.to_bits(), "{space:?}");
