@@ -8,11 +8,22 @@
 //! UnitVec3 at that size, the energy per pixel after 0.5, 1, 2, 4, … 256 swaps per pixel (from one
 //! long run's trace; 0.5 from its own run), with the time of the whole run and the low-band power
 //! of each component at the end. `STBN_VECTOR_CURVE_MAX` sets the longest budget (default 256).
+//!
+//! `STBN_VECTOR_QUALITY=WxHxD cargo bench -p stbn-gen --bench vector` instead generates Vec2 and
+//! UnitVec3 at that size once per budget of `STBN_VECTOR_QUALITY_BUDGETS` (default `16,128,1024`
+//! swaps per pixel; seed `STBN_VECTOR_SEED`, default 1) and prints, per run, the time, the energy
+//! and what a renderer sees: the low-band power of component 0, FAST's filtered error with random
+//! half-space thresholds at the last frame, and for Vec2 the 2D integration errors (Monte Carlo
+//! RMSE after `depth/2` frames, EMA RMSE at the last frame) of the disc, Gaussian and diagonal
+//! step.
 
 use std::time::Instant;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use stbn_gen::analysis::{Field, spatial_low_band, temporal_low_band};
+use stbn_gen::analysis::{
+    ConvergenceOptions, Field, FilteredErrorOptions, Integrand2D, convergence_2d,
+    filtered_error_vector, spatial_low_band, temporal_low_band,
+};
 use stbn_gen::{SampleSpace, VectorSpec, VectorVolume, generate_vector};
 
 fn spaces() -> [(SampleSpace, bool); 2] {
@@ -23,7 +34,9 @@ fn spaces() -> [(SampleSpace, bool); 2] {
 }
 
 fn timing(c: &mut Criterion) {
-    if std::env::var_os("STBN_VECTOR_CURVE").is_some() {
+    if std::env::var_os("STBN_VECTOR_CURVE").is_some()
+        || std::env::var_os("STBN_VECTOR_QUALITY").is_some()
+    {
         return;
     }
     let mut sizes = vec![(32, 32, 16)];
@@ -46,30 +59,102 @@ fn timing(c: &mut Criterion) {
 
 /// Spatial and temporal low-band power of each component (signed components mapped to [0, 1]).
 fn bands(volume: &VectorVolume, signed: bool) -> String {
-    let (w, h, d) = (
-        volume.width() as usize,
-        volume.height() as usize,
-        volume.depth() as usize,
-    );
+    let values = component_values(volume, signed);
+    fields(volume, &values)
+        .iter()
+        .enumerate()
+        .map(|(c, field)| {
+            format!(
+                "c{c}: spatial {:.4} temporal {:.4}",
+                spatial_low_band(field).unwrap_or(0.0),
+                temporal_low_band(field).unwrap_or(0.0)
+            )
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// Each component's values (signed components mapped to [0, 1]).
+fn component_values(volume: &VectorVolume, signed: bool) -> Vec<Vec<f64>> {
     (0..volume.dims())
         .map(|c| {
-            let values: Vec<f64> = volume
+            volume
                 .values()
                 .chunks_exact(volume.dims())
                 .map(|v| {
                     let x = f64::from(v[c]);
                     if signed { x * 0.5 + 0.5 } else { x }
                 })
-                .collect();
-            let field = Field::new(w, h, d, &values).unwrap();
-            format!(
-                "c{c}: spatial {:.4} temporal {:.4}",
-                spatial_low_band(&field).unwrap_or(0.0),
-                temporal_low_band(&field).unwrap_or(0.0)
-            )
+                .collect()
         })
-        .collect::<Vec<_>>()
-        .join(", ")
+        .collect()
+}
+
+/// Fields over `values` shaped like `volume`.
+fn fields<'a>(volume: &VectorVolume, values: &'a [Vec<f64>]) -> Vec<Field<'a>> {
+    let (w, h, d) = (
+        volume.width() as usize,
+        volume.height() as usize,
+        volume.depth() as usize,
+    );
+    values
+        .iter()
+        .map(|v| Field::new(w, h, d, v).unwrap())
+        .collect()
+}
+
+fn quality(_: &mut Criterion) {
+    let Ok(size) = std::env::var("STBN_VECTOR_QUALITY") else {
+        return;
+    };
+    let dims: Vec<u32> = size.split('x').map(|s| s.parse().unwrap()).collect();
+    let (w, h, d) = (dims[0], dims[1], dims[2]);
+    let budgets: Vec<f64> = std::env::var("STBN_VECTOR_QUALITY_BUDGETS")
+        .unwrap_or_else(|_| "16,128,1024".to_owned())
+        .split(',')
+        .map(|s| s.parse().unwrap())
+        .collect();
+    let seed: u64 = std::env::var("STBN_VECTOR_SEED").map_or(1, |s| s.parse().unwrap());
+    for (space, signed) in spaces() {
+        for &budget in &budgets {
+            let spec = VectorSpec::new(w, h, d, seed, space.clone()).with_swaps_per_pixel(budget);
+            let start = Instant::now();
+            let (volume, trace) = generate_vector(&spec).unwrap();
+            let seconds = start.elapsed().as_secs_f64();
+            let energy = trace.points.last().unwrap().energy / spec.pixels() as f64;
+            let values = component_values(&volume, signed);
+            let fields = fields(&volume, &values);
+            let filtered = filtered_error_vector(&fields, FilteredErrorOptions::default()).unwrap();
+            println!(
+                "{} {w}x{h}x{d}, seed {seed}, {budget} swaps/pixel: {seconds:.1} s, \
+                 energy/pixel {energy:.6}, \
+                 c0 spatial {:.4} temporal {:.4}, filtered error (half-spaces) {:.5}",
+                space.name(),
+                spatial_low_band(&fields[0]).unwrap_or(0.0),
+                temporal_low_band(&fields[0]).unwrap_or(0.0),
+                filtered[d as usize - 1]
+            );
+            if fields.len() == 2 {
+                let frames = d as usize;
+                for integrand in Integrand2D::ALL {
+                    let c = convergence_2d(
+                        &fields[0],
+                        &fields[1],
+                        integrand,
+                        ConvergenceOptions::new(frames),
+                    )
+                    .unwrap();
+                    println!(
+                        "  {}: MC RMSE after {} frames {:.4}, EMA RMSE {:.4}",
+                        integrand.name(),
+                        frames / 2,
+                        c.monte_carlo[frames / 2 - 1],
+                        c.ema[frames - 1]
+                    );
+                }
+            }
+        }
+    }
 }
 
 fn curve(_: &mut Criterion) {
@@ -116,5 +201,5 @@ fn curve(_: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, timing, curve);
+criterion_group!(benches, timing, curve, quality);
 criterion_main!(benches);

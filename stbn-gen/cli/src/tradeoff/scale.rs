@@ -157,8 +157,9 @@ pub fn scale(plan: &Plan) -> Result<Section> {
         method: format!(
             "Issue 6: scalar 256×256×128 in ≤ 30 s and vector 256×256×64 in ≤ 5 min (release, \
              two cores), memory reported. One run each, seed {}, default settings (Vec2 at the \
-             default 16 swaps per pixel), on the global rayon pool (all cores).{note}",
-            plan.seed
+             default {} swaps per pixel), on the global rayon pool (all cores).{note}",
+            plan.seed,
+            VectorSpec::DEFAULT_SWAPS_PER_PIXEL
         ),
         tables: vec![("scale".to_owned(), "Scale.".to_owned(), table)],
         charts: Vec::new(),
