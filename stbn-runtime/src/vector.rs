@@ -73,8 +73,19 @@ impl Stbn<'_> {
     ///
     /// Works for every mask: a scalar mask gives `(u, 0, 0, 0)` with pdf 1.
     pub fn sample_vector(&self, x: i32, y: i32, frame: u32, offset: SampleOffset) -> VectorSample {
-        let header = self.header();
         let voxel = self.voxel(x, y, frame, offset);
+        let value = self.vector_value(voxel);
+        VectorSample {
+            value,
+            pdf: self.vector_pdf(voxel, value),
+        }
+    }
+
+    /// The value stored at `voxel` (a channel-0 element index), mapped by the mask's
+    /// [`ValueMap`] and normalised for unit-vector spaces.
+    #[inline]
+    fn vector_value(&self, voxel: usize) -> Vec4 {
+        let header = self.header();
         let map = header.value_map;
         let mut raw = [0.0f32; 4];
         for (c, r) in raw
@@ -84,43 +95,43 @@ impl Stbn<'_> {
         {
             *r = map.apply(self.element(voxel + c));
         }
-        let space = header.space;
-        let value = match map {
+        match map {
             ValueMap::Octahedral => octahedral_decode(Vec2::new(raw[0], raw[1])).extend(0.0),
-            _ if space.is_unit() => normalise_or_keep(Vec4::from_array(raw)),
+            _ if header.space.is_unit() => normalise_or_keep(Vec4::from_array(raw)),
             _ => Vec4::from_array(raw),
-        };
-        let pdf = if space.stores_pdf() {
+        }
+    }
+
+    /// The pdf of `value`, the value at `voxel`: the stored channel or the space's density.
+    #[inline]
+    fn vector_pdf(&self, voxel: usize, value: Vec4) -> f32 {
+        let header = self.header();
+        if header.space.stores_pdf() {
             let t = self.element_full_range(voxel + usize::from(header.channels) - 1);
             // t in [0, 1], so the result lies in [pdf_min, pdf_max] (both finite, >= 0).
             (header.pdf_min + t * (header.pdf_max - header.pdf_min)).max(0.0)
         } else {
-            derived_pdf(space, map, header.dims(), value)
-        };
-        VectorSample { value, pdf }
+            derived_pdf(header.space, header.value_map, header.dims(), value)
+        }
     }
 
     /// The first two components at `(x, y, frame)` (see [`sample_vector`](Self::sample_vector)).
     #[inline]
     pub fn sample_vec2(&self, x: i32, y: i32, frame: u32) -> Vec2 {
-        self.sample_vector(x, y, frame, SampleOffset::ZERO)
-            .value
-            .truncate()
-            .truncate()
+        self.sample_vec4(x, y, frame).truncate().truncate()
     }
 
     /// The first three components at `(x, y, frame)`: a unit vector for direction masks.
     #[inline]
     pub fn sample_vec3(&self, x: i32, y: i32, frame: u32) -> Vec3 {
-        self.sample_vector(x, y, frame, SampleOffset::ZERO)
-            .value
-            .truncate()
+        self.sample_vec4(x, y, frame).truncate()
     }
 
-    /// All four components at `(x, y, frame)`.
+    /// All four components at `(x, y, frame)` (the value of
+    /// [`sample_vector`](Self::sample_vector), without the pdf).
     #[inline]
     pub fn sample_vec4(&self, x: i32, y: i32, frame: u32) -> Vec4 {
-        self.sample_vector(x, y, frame, SampleOffset::ZERO).value
+        self.vector_value(self.voxel(x, y, frame, SampleOffset::ZERO))
     }
 
     /// The pdf of the value at `(x, y, frame)` (see [`VectorSample::pdf`]).
