@@ -753,6 +753,15 @@ struct Tile {
     id: u64,
 }
 
+/// A uniform index in `0..n` other than `i` (`n ≥ 2`), from one `u32` of `rng` (multiply-shift,
+/// bias below 2⁻¹⁶ for the tile sizes here). Shared with the filter-adapted optimiser, whose
+/// partners are drawn the same way.
+#[inline(always)]
+pub(crate) fn other_index(rng: &mut ChaCha8Rng, i: u32, n: u32) -> u32 {
+    let j = ((u64::from(rng.next_u32()) * u64::from(n - 1)) >> 32) as u32;
+    if j >= i { j + 1 } else { j }
+}
+
 /// Tiles along an axis of `size` pixels: an even count whose tiles are all at least `2 · reach`
 /// wide, near `size / target`; 1 when the axis is too short for two. Two tiles of one colour are
 /// then separated by more than twice the reach: neither reads a pixel the other writes, and the
@@ -1085,11 +1094,7 @@ impl SwapKernel {
             let base = z as usize * self.slice_pixels();
             order.shuffle(&mut rng);
             for &i in &order[..count] {
-                // A uniform other pixel of the tile (multiply-shift, bias < 2⁻¹⁶).
-                let mut draw = || {
-                    let j = ((u64::from(rng.next_u32()) * u64::from(n - 1)) >> 32) as u32;
-                    if j >= i { j + 1 } else { j }
-                };
+                let mut draw = || other_index(&mut rng, i, n);
                 // The candidate whose value is nearest but not equal (swapping equal values
                 // changes nothing, and spaces like ±1 have many), the first of equals.
                 let mut j = draw();

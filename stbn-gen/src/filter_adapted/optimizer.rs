@@ -49,12 +49,12 @@
 //! twice the reach wide), written back after the colour. Each tile draws from its own ChaCha8
 //! stream keyed by (seed, pass, tile). Nothing depends on the number of threads.
 
+use rand::RngExt;
 use rand::seq::SliceRandom;
-use rand::{Rng, RngExt};
 use rayon::prelude::*;
 
 use super::filters::{Kernel, ScanKernel};
-use crate::swap::{keyed_rng, tiles_along};
+use crate::swap::{keyed_rng, other_index, tiles_along};
 
 /// Domain tags of this optimiser's random streams (distinct from the swap optimiser's).
 pub(crate) mod stream {
@@ -901,11 +901,8 @@ impl Optimizer {
             order.shuffle(&mut rng);
             let base = z * n;
             for &i in &order[..count] {
-                // A uniform partner among the other n − 1 pixels (multiply-shift, bias < 2⁻¹⁶).
-                let mut j = ((u64::from(rng.next_u32()) * (n as u64 - 1)) >> 32) as u32;
-                if j >= i {
-                    j += 1;
-                }
+                // A uniform partner among the other n − 1 pixels.
+                let j = other_index(&mut rng, i, n as u32);
                 let (i, j) = (i as usize, j as usize);
                 result.attempted += 1;
                 let a = tile.local(i, self.reach);
