@@ -2,7 +2,7 @@
 //! convergence figures of every integrand, PNG plots in `plots/`, DFT magnitude images in `dft/`
 //! and every number as CSV in `csv/`.
 
-mod csv;
+pub(crate) mod csv;
 pub(crate) mod plots;
 mod spectrum_images;
 

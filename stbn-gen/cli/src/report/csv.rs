@@ -219,7 +219,7 @@ pub fn write(out: &Path, rows: &[Row]) -> Result<Vec<(PathBuf, Table)>> {
 
 /// `field` as one CSV field: quoted (inner quotes doubled) when it holds a comma, a quote or a
 /// line break.
-fn quote(field: &str) -> String {
+pub(crate) fn quote(field: &str) -> String {
     if field.contains([',', '"', '\n', '\r']) {
         format!("\"{}\"", field.replace('"', "\"\""))
     } else {

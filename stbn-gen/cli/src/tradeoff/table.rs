@@ -1,6 +1,8 @@
 //! A table of figures written twice: as CSV (every digit an `f64` holds, empty for a missing
 //! figure) and as a markdown table (rounded for reading, `n/a` for a missing figure).
 
+use crate::report::csv::quote;
+
 /// One field: its CSV text and its markdown text.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Cell {
@@ -173,15 +175,6 @@ impl Table {
             text.push_str(&format!("| {} |\n", cells.join(" | ")));
         }
         text
-    }
-}
-
-/// `field` quoted if it holds a comma, a quote or a line break.
-fn quote(field: &str) -> String {
-    if field.contains([',', '"', '\n', '\r']) {
-        format!("\"{}\"", field.replace('"', "\"\""))
-    } else {
-        field.to_owned()
     }
 }
 
