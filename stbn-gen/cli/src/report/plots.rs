@@ -168,6 +168,33 @@ pub fn write_rgb_png(pixels: &[u8], (width, height): (u32, u32), path: &Path) ->
 
 /// The RGB pixels of `plot`, row-major; `text` draws the title, ticks, axis titles and legend
 /// (it needs a registered font).
+/// Draws the x-axis title centred 24 pixels below the plot area and the y-axis title rotated,
+/// `y_title_left` pixels from the image's left edge; `corners` are the plot area's bottom-left
+/// and top-right corners in pixels. Shared with the trade study's charts.
+pub(crate) fn draw_axis_titles(
+    root: &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>,
+    font: &TextStyle<'_>,
+    ((left, bottom), (right, top)): ((i32, i32), (i32, i32)),
+    (x_title, y_title): (&str, &str),
+    y_title_left: i32,
+) -> std::result::Result<(), Box<dyn std::error::Error>> {
+    let below = font.pos(Pos::new(HPos::Center, VPos::Top));
+    root.draw(&Text::new(
+        x_title,
+        ((left + right) / 2, bottom + 24),
+        below,
+    ))?;
+    let rotated = font
+        .transform(FontTransform::Rotate270)
+        .pos(Pos::new(HPos::Center, VPos::Top));
+    root.draw(&Text::new(
+        y_title,
+        (y_title_left, (top + bottom) / 2),
+        rotated,
+    ))?;
+    Ok(())
+}
+
 fn render(plot: &Plot, text: bool) -> std::result::Result<Vec<u8>, Box<dyn std::error::Error>> {
     let mut pixels = vec![0u8; SIZE.0 as usize * SIZE.1 as usize * 3];
     {
@@ -230,20 +257,16 @@ fn render(plot: &Plot, text: bool) -> std::result::Result<Vec<u8>, Box<dyn std::
                 let style = font.pos(Pos::new(HPos::Right, VPos::Center));
                 root.draw(&Text::new(tick(y, plot.y.log), (px - 6, py), style))?;
             }
-            let (left, bottom) = chart.backend_coord(&(x0, y0));
-            let (right, top) = chart.backend_coord(&(x1, y1));
-            let below = font.pos(Pos::new(HPos::Center, VPos::Top));
-            let x_title = Text::new(
-                plot.x.title.as_str(),
-                ((left + right) / 2, bottom + 24),
-                below,
-            );
-            root.draw(&x_title)?;
-            let rotated = font
-                .transform(FontTransform::Rotate270)
-                .pos(Pos::new(HPos::Center, VPos::Top));
-            let y_title = Text::new(plot.y.title.as_str(), (14, (top + bottom) / 2), rotated);
-            root.draw(&y_title)?;
+            draw_axis_titles(
+                &root,
+                &font,
+                (
+                    chart.backend_coord(&(x0, y0)),
+                    chart.backend_coord(&(x1, y1)),
+                ),
+                (&plot.x.title, &plot.y.title),
+                14,
+            )?;
             chart
                 .configure_series_labels()
                 .position(plot.legend.clone())

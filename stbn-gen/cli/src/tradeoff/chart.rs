@@ -12,7 +12,7 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use crate::Result;
-use crate::report::plots::{PALETTE, font_available, write_rgb_png};
+use crate::report::plots::{PALETTE, draw_axis_titles, font_available, write_rgb_png};
 
 /// Plot size in pixels.
 pub const SIZE: (u32, u32) = (720, 440);
@@ -263,20 +263,13 @@ fn render(chart: &Chart, text: bool) -> std::result::Result<Vec<u8>, Box<dyn std
                 let style = font.pos(Pos::new(HPos::Right, VPos::Center));
                 root.draw(&Text::new(tick(&chart.y, y), (px - 6, py), style))?;
             }
-            let (left, bottom) = plot.backend_coord(&(x0, y0));
-            let (right, top) = plot.backend_coord(&(x1, y1));
-            let below = font.pos(Pos::new(HPos::Center, VPos::Top));
-            let x_title = Text::new(
-                chart.x.title.as_str(),
-                ((left + right) / 2, bottom + 24),
-                below,
-            );
-            root.draw(&x_title)?;
-            let rotated = font
-                .transform(FontTransform::Rotate270)
-                .pos(Pos::new(HPos::Center, VPos::Top));
-            let y_title = Text::new(chart.y.title.as_str(), (10, (top + bottom) / 2), rotated);
-            root.draw(&y_title)?;
+            draw_axis_titles(
+                &root,
+                &font,
+                (plot.backend_coord(&(x0, y0)), plot.backend_coord(&(x1, y1))),
+                (&chart.x.title, &chart.y.title),
+                10,
+            )?;
             plot.configure_series_labels()
                 .position(chart.legend.clone())
                 .background_style(WHITE.mix(0.85))
