@@ -264,6 +264,9 @@ pub struct SwapKernel {
     /// Extremes of the spatial taps' `dx` and `dy`.
     dx_range: (i32, i32),
     dy_range: (i32, i32),
+    /// The spatial tap of each offset in those ranges (row `dy`, column `dx`), `u32::MAX` where
+    /// there is none.
+    tap_at_offset: Vec<u32>,
     /// `1/σs²` in single precision, as [`value_factor`] takes it.
     inv_sigma_value_sq: f32,
     /// Deltas must be below `−margin` for a swap to be accepted.
@@ -338,13 +341,21 @@ impl SwapKernel {
         };
         let total: f64 =
             spatial.iter().map(|t| t.2).sum::<f64>() + temporal.iter().map(|t| t.1).sum::<f64>();
+        let (dx_range, dy_range) = (range(|t| t.0), range(|t| t.1));
+        let columns = (dx_range.1 - dx_range.0 + 1) as usize;
+        let mut tap_at_offset = vec![u32::MAX; columns * (dy_range.1 - dy_range.0 + 1) as usize];
+        for (k, &(dx, dy, _)) in spatial.iter().enumerate() {
+            let cell = (dy - dy_range.0) as usize * columns + (dx - dx_range.0) as usize;
+            tap_at_offset[cell] = k as u32;
+        }
         SwapKernel {
             width: w,
             height: h,
             depth: d,
             dims: spec.space.dims(),
-            dx_range: range(|t| t.0),
-            dy_range: range(|t| t.1),
+            dx_range,
+            dy_range,
+            tap_at_offset,
             spatial_step,
             temporal_step,
             spatial,
@@ -452,42 +463,67 @@ impl SwapKernel {
     }
 }
 
-/// Per-task buffers of one swap evaluation: one entry per neighbour of either pixel, `a`'s
-/// first.
+/// Per-task buffers of one swap evaluation of pixels `a` and `b`: one entry per neighbour tap of
+/// either pixel (`a`'s taps first, then `b`'s, each in the kernel's tap order), padded with
+/// zeros to whole [`FACTOR_LANES`].
+///
+/// A proposal only fills `after`; the neighbours' indices and `before` are gathered again by
+/// [`SwapKernel::apply`] for the few proposals that are accepted.
 struct Scratch {
-    /// The neighbour's index.
+    /// The neighbour's index (filled by `apply`).
     index: Vec<usize>,
-    /// Pair weight; 0 for padding and for the pair `(a, b)` itself.
+    /// Pair weight of each tap (the kernel's, the same for every pixel); 0 in the padding.
     weight: Vec<f64>,
     /// Squared distance from the neighbour's value to its centre's value before and after the
     /// swap (for `a`'s neighbours `‖va − n‖²` and `‖vb − n‖²`; for `b`'s the other way round).
     before: Vec<f32>,
     after: Vec<f32>,
-    /// Value factors of `before` or `after` (computed 8 lanes wide).
+    /// Value factors of `before` or `after` (computed 8 lanes wide); 0 for the pair `(a, b)`.
     factor: Vec<f32>,
     /// `weight · value factor` after the swap, then the change of the neighbour's energy.
     term: Vec<f64>,
-    /// Entries of `a`'s neighbours; all entries.
-    split: usize,
+    /// Taps of one pixel (`a`'s entries are `..taps`); all entries, and rounded up to lanes.
+    taps: usize,
     len: usize,
-    /// Weight of the pair `(a, b)` (0 if they do not interact).
-    pair_weight: f64,
+    padded: usize,
+    /// The entries of the pair `(a, b)` (`b` among `a`'s taps, `a` among `b`'s), if they
+    /// interact.
+    pair: Option<(usize, usize)>,
 }
 
 impl Scratch {
     fn new(kernel: &SwapKernel) -> Scratch {
-        let taps = 2 * (kernel.spatial.len() + kernel.temporal.len());
-        let capacity = taps.div_ceil(FACTOR_LANES) * FACTOR_LANES;
+        let taps = kernel.spatial.len() + kernel.temporal.len();
+        let len = 2 * taps;
+        let padded = len.div_ceil(FACTOR_LANES) * FACTOR_LANES;
+        let mut weight: Vec<f64> = kernel
+            .spatial
+            .iter()
+            .map(|t| t.2)
+            .chain(kernel.temporal.iter().map(|t| t.1))
+            .collect();
+        weight.extend_from_within(..);
+        weight.resize(padded, 0.0);
         Scratch {
-            index: vec![0; capacity],
-            weight: vec![0.0; capacity],
-            before: vec![0.0; capacity],
-            after: vec![0.0; capacity],
-            factor: vec![0.0; capacity],
-            term: vec![0.0; capacity],
-            split: 0,
-            len: 0,
-            pair_weight: 0.0,
+            index: vec![0; padded],
+            weight,
+            before: vec![0.0; padded],
+            after: vec![0.0; padded],
+            factor: vec![0.0; padded],
+            term: vec![0.0; padded],
+            taps,
+            len,
+            padded,
+            pair: None,
+        }
+    }
+
+    /// `term = weight · factor` over every entry, padding included.
+    #[inline(always)]
+    fn weigh(&mut self) {
+        let entries = self.weight.iter().zip(&self.factor);
+        for (term, (&w, &f)) in self.term.iter_mut().zip(entries) {
+            *term = w * f64::from(f);
         }
     }
 }
@@ -566,48 +602,17 @@ fn value_factors<const D: usize>(distance: &[f32], factor: &mut [f32], inv_sigma
     }
 }
 
-/// Appends neighbour `n` (pair weight `wt`) to `scratch` (see [`SwapKernel::gather`]).
-#[inline(always)]
-fn push_neighbour<const D: usize>(
-    shared: &Shared,
-    n: usize,
-    wt: f64,
-    partner: usize,
-    (before, after): (&[f32; D], &[f32; D]),
-    scratch: &mut Scratch,
-) {
-    let k = scratch.len;
-    let v = shared.value::<D>(n);
-    scratch.index[k] = n;
-    scratch.before[k] = squared_distance(before, &v);
-    scratch.after[k] = squared_distance(after, &v);
-    scratch.weight[k] = if n == partner {
-        scratch.pair_weight = wt;
-        0.0
-    } else {
-        wt
-    };
-    scratch.len = k + 1;
-}
-
 impl SwapKernel {
-    /// Appends the neighbours of pixel `(x, y)` of slice `z` (index `centre`) to `scratch`: their
-    /// squared value distances to `before` and `after` (the centre's value now and after the
-    /// swap) and their weights, 0 for the pixel `partner` (whose pair weight is recorded).
-    #[allow(clippy::too_many_arguments)]
+    /// Calls `visit(k, n)` for each neighbour `n` of pixel `(x, y)` of slice `z` (index
+    /// `centre`), `k` its tap number: the spatial taps in the kernel's order, then the temporal
+    /// ones.
     #[inline(always)]
-    fn gather<const D: usize>(
+    fn for_each_neighbour(
         &self,
-        shared: &Shared,
         (x, y, z): (u32, u32, u32),
         centre: usize,
-        partner: usize,
-        (before, after): ([f32; D], [f32; D]),
-        scratch: &mut Scratch,
+        mut visit: impl FnMut(usize, usize),
     ) {
-        let push = |n: usize, wt: f64, scratch: &mut Scratch| {
-            push_neighbour::<D>(shared, n, wt, partner, (&before, &after), scratch)
-        };
         let (xi, yi) = (x as i32, y as i32);
         let (w, h) = (self.width as i32, self.height as i32);
         let interior = xi + self.dx_range.0 >= 0
@@ -615,8 +620,8 @@ impl SwapKernel {
             && yi + self.dy_range.0 >= 0
             && yi + self.dy_range.1 < h;
         if interior {
-            for (&(_, _, wt), &step) in self.spatial.iter().zip(&self.spatial_step) {
-                push((centre as isize + step) as usize, wt, scratch);
+            for (k, &step) in self.spatial_step.iter().enumerate() {
+                visit(k, (centre as isize + step) as usize);
             }
         } else {
             let wrap = |t: i32, size: i32| {
@@ -629,15 +634,45 @@ impl SwapKernel {
                 }
             };
             let row0 = centre - (y as usize * self.width as usize + x as usize);
-            for &(dx, dy, wt) in &self.spatial {
+            for (k, &(dx, dy, _)) in self.spatial.iter().enumerate() {
                 let nx = wrap(xi + dx, w) as usize;
                 let ny = wrap(yi + dy, h) as usize;
-                push(row0 + ny * self.width as usize + nx, wt, scratch);
+                visit(k, row0 + ny * self.width as usize + nx);
             }
         }
-        for (&(_, wt), &step) in self.temporal.iter().zip(&self.temporal_step[z as usize]) {
-            push((centre as isize + step) as usize, wt, scratch);
+        let first = self.spatial.len();
+        for (k, &step) in self.temporal_step[z as usize].iter().enumerate() {
+            visit(first + k, (centre as isize + step) as usize);
         }
+    }
+
+    /// `out[k] = ‖value − Vn‖²` for each neighbour `n` (tap `k`) of pixel `(x, y)` of slice `z`.
+    #[inline(always)]
+    fn gather<const D: usize>(
+        &self,
+        shared: &Shared,
+        at: (u32, u32, u32),
+        centre: usize,
+        value: &[f32; D],
+        out: &mut [f32],
+    ) {
+        self.for_each_neighbour(at, centre, |k, n| {
+            out[k] = squared_distance(value, &shared.value::<D>(n));
+        });
+    }
+
+    /// The spatial tap from pixel `from` to pixel `to` of the same slice, if they interact.
+    #[inline(always)]
+    fn spatial_tap(&self, from: (u32, u32), to: (u32, u32)) -> Option<usize> {
+        let dx = canonical(i64::from(to.0) - i64::from(from.0), self.width);
+        let dy = canonical(i64::from(to.1) - i64::from(from.1), self.height);
+        let ((x0, x1), (y0, y1)) = (self.dx_range, self.dy_range);
+        if dx < x0 || dx > x1 || dy < y0 || dy > y1 {
+            return None;
+        }
+        let cell = (dy - y0) as usize * (x1 - x0 + 1) as usize + (dx - x0) as usize;
+        let tap = self.tap_at_offset[cell];
+        (tap != u32::MAX).then_some(tap as usize)
     }
 
     /// The exact energy change of swapping the values of pixels `a` and `b` of slice `z`, from
@@ -663,55 +698,79 @@ impl SwapKernel {
         if ia == ib || va == vb {
             return (0.0, ia, ib);
         }
-        scratch.len = 0;
-        scratch.pair_weight = 0.0;
-        self.gather::<D>(shared, (a.0, a.1, z), ia, ib, (va, vb), scratch);
-        scratch.split = scratch.len;
-        self.gather::<D>(shared, (b.0, b.1, z), ib, ia, (vb, va), scratch);
-        // Pad to whole lanes with weight 0.
-        let len = scratch.len.div_ceil(FACTOR_LANES) * FACTOR_LANES;
-        for k in scratch.len..len {
-            scratch.weight[k] = 0.0;
-            scratch.after[k] = 0.0;
-            scratch.before[k] = 0.0;
-        }
+        let taps = scratch.taps;
+        let (after_a, after_b) = scratch.after.split_at_mut(taps);
+        self.gather::<D>(shared, (a.0, a.1, z), ia, &vb, after_a);
+        self.gather::<D>(shared, (b.0, b.1, z), ib, &va, after_b);
         let inv = self.inv_sigma_value_sq;
-        value_factors::<D>(&scratch.after[..len], &mut scratch.factor[..len], inv);
-        let entries = scratch.weight[..len].iter().zip(&scratch.factor[..len]);
-        for (term, (&w, &f)) in scratch.term[..len].iter_mut().zip(entries) {
-            *term = w * f64::from(f);
+        value_factors::<D>(&scratch.after, &mut scratch.factor, inv);
+        // The pair (a, b) keeps its energy: leave it out of both sums.
+        scratch.pair = self
+            .spatial_tap(a, b)
+            .zip(self.spatial_tap(b, a))
+            .map(|(ka, kb)| (ka, taps + kb));
+        if let Some((ka, kb)) = scratch.pair {
+            scratch.factor[ka] = 0.0;
+            scratch.factor[kb] = 0.0;
         }
+        scratch.weigh();
         let after = lane_sum(&scratch.term[..scratch.len]);
-        let pair = if scratch.pair_weight > 0.0 {
-            scratch.pair_weight * f64::from(value_factor::<D>(squared_distance(&va, &vb), inv))
-        } else {
-            0.0
+        let pair = match scratch.pair {
+            Some((_, kb)) => {
+                scratch.weight[kb] * f64::from(value_factor::<D>(squared_distance(&va, &vb), inv))
+            }
+            None => 0.0,
         };
         let delta = after - (shared.energy(ia) + shared.energy(ib)) + 2.0 * pair;
         (delta, ia, ib)
     }
 
-    /// Performs the swap [`SwapKernel::delta`] just evaluated (with `scratch` as it left it):
-    /// swaps the values and updates the energies of `a`, `b` and every neighbour.
+    /// Performs the swap of pixels `a` and `b` of slice `z` (indices `ia`, `ib`) that
+    /// [`SwapKernel::delta`] just evaluated (with `scratch` as it left it): swaps the values and
+    /// updates the energies of `a`, `b` and every neighbour.
     #[inline(always)]
-    fn apply<const D: usize>(&self, shared: &Shared, ia: usize, ib: usize, scratch: &mut Scratch) {
-        // `delta` padded the buffers to whole lanes.
-        let len = scratch.len.div_ceil(FACTOR_LANES) * FACTOR_LANES;
-        let (split, count) = (scratch.split, scratch.len);
-        let e_a = lane_sum(&scratch.term[..split]);
-        let e_b = lane_sum(&scratch.term[split..count]);
+    fn apply<const D: usize>(
+        &self,
+        shared: &Shared,
+        z: u32,
+        (a, b): ((u32, u32), (u32, u32)),
+        (ia, ib): (usize, usize),
+        scratch: &mut Scratch,
+    ) {
+        let (taps, count, padded) = (scratch.taps, scratch.len, scratch.padded);
+        let e_a = lane_sum(&scratch.term[..taps]);
+        let e_b = lane_sum(&scratch.term[taps..count]);
         let inv = self.inv_sigma_value_sq;
-        let pair = {
-            let (va, vb) = (shared.value::<D>(ia), shared.value::<D>(ib));
-            scratch.pair_weight * f64::from(value_factor::<D>(squared_distance(&va, &vb), inv))
+        let (va, vb) = (shared.value::<D>(ia), shared.value::<D>(ib));
+        let pair = match scratch.pair {
+            Some((_, kb)) => {
+                scratch.weight[kb] * f64::from(value_factor::<D>(squared_distance(&va, &vb), inv))
+            }
+            None => 0.0,
         };
-        value_factors::<D>(&scratch.before[..len], &mut scratch.factor[..len], inv);
-        let entries = scratch.weight[..len].iter().zip(&scratch.factor[..len]);
-        for (term, (&w, &f)) in scratch.term[..len].iter_mut().zip(entries) {
+        for (centre, at, value, first) in [(ia, a, &va, 0), (ib, b, &vb, taps)] {
+            let (index, before) = (&mut scratch.index, &mut scratch.before);
+            self.for_each_neighbour((at.0, at.1, z), centre, |k, n| {
+                index[first + k] = n;
+                before[first + k] = squared_distance(value, &shared.value::<D>(n));
+            });
+        }
+        value_factors::<D>(
+            &scratch.before[..padded],
+            &mut scratch.factor[..padded],
+            inv,
+        );
+        if let Some((ka, kb)) = scratch.pair {
+            scratch.factor[ka] = 0.0;
+            scratch.factor[kb] = 0.0;
+        }
+        let entries = scratch.weight.iter().zip(&scratch.factor);
+        for (term, (&w, &f)) in scratch.term.iter_mut().zip(entries) {
             *term -= w * f64::from(f);
         }
+        let (ka, kb) = scratch.pair.unwrap_or((usize::MAX, usize::MAX));
         for k in 0..count {
-            if scratch.weight[k] != 0.0 {
+            if k != ka && k != kb {
                 let n = scratch.index[k];
                 shared.set_energy(n, shared.energy(n) + scratch.term[k]);
             }
@@ -734,7 +793,7 @@ impl SwapKernel {
     ) -> Option<f64> {
         let (delta, ia, ib) = self.delta::<D>(shared, z, a, b, scratch);
         if delta < -self.margin {
-            self.apply::<D>(shared, ia, ib, scratch);
+            self.apply::<D>(shared, z, (a, b), (ia, ib), scratch);
             Some(delta)
         } else {
             None
