@@ -78,7 +78,7 @@ impl VectorSpec {
     pub const DEFAULT_SIGMA_IMAGE: f64 = 1.9;
     /// σs the paper uses.
     pub const DEFAULT_SIGMA_VALUE: f64 = 1.0;
-    /// Default budget in swaps proposed per pixel: Vec2 and UnitVec3 at 128×128×64 in 33–47 s on
+    /// Default budget in swaps proposed per pixel: Vec2 and UnitVec3 at 128×128×64 in 28–34 s on
     /// the two cores here, inside the 60 s target. An 8× longer run still lowers the energy by
     /// 0.1% (Vec2) / 0.4% (UnitVec3) and FAST's filtered error by 2.2% / 2.4%; BENCHMARKS.md has
     /// the curve, the times and the quality per budget.
