@@ -531,8 +531,9 @@ impl Scratch {
 
 /// The values and pixel energies the tiles share (see the [module docs](self)).
 ///
-/// The tile colouring guarantees that no pixel is written by one thread while another reads or
-/// writes it. Writes are relaxed atomic stores (plain stores once compiled), which make that
+/// Invariant (what [`Shared::value`]'s plain reads rely on): no pixel is written by one thread
+/// while another reads or writes it. The tile colouring guarantees it during a pass; anything
+/// that runs tiles concurrently must keep it. Writes are relaxed atomic stores (plain stores once compiled), which make that
 /// sharing expressible; the hot reads of values are plain loads ([`Shared::value`]).
 struct Shared<'s> {
     /// `f32` bits, index `pixel · dims + c`.
@@ -544,17 +545,20 @@ struct Shared<'s> {
 impl Shared<'_> {
     /// The value of `pixel`, read with plain (not atomic) loads: atomic ones, even relaxed,
     /// keep the compiler from unrolling and scheduling the optimiser's hot loops. Plain loads
-    /// made whole runs 5–10% faster (64×64×32, 32 swaps/px, one thread, AVX-512, eight
-    /// alternating runs, medians: Vec2 2.25 → 2.15 s, UnitVec3 2.15 → 1.9 s).
+    /// made whole runs 4–12% faster (64×64×32, 32 swaps/px, one thread, AVX-512, eight
+    /// alternating runs, medians: Vec2 2.25 → 2.15 s, UnitVec3 2.15 → 1.9 s; the VM's speed
+    /// drifts from one set of runs to the next, so compare figures within a set only).
     #[inline(always)]
     fn value<const D: usize>(&self, pixel: usize) -> [f32; D] {
         std::array::from_fn(|c| {
             let bits = self.values[pixel * D + c].as_ptr();
             // SAFETY: `bits` points to a live `u32` (a bounds-checked element). No other thread
-            // writes it now: a tile reads only its own pixels and their neighbours, which the
-            // tile colouring (module docs) keeps away from every pixel another tile of its colour
-            // writes, and the phases of a pass are joined before the next one starts. A plain
-            // read that races with no write is defined, even though the writes are atomic.
+            // writes it now. In a pass, a tile reads only its own pixels and their neighbours,
+            // which the tile colouring (module docs, `tiles_along`) keeps away from every pixel
+            // another tile of its colour writes, and the colour phases are joined one after the
+            // other. Outside passes (`swap_delta`, `try_swap`) the `Shared` is built from
+            // `&self` or `&mut self`, so no other thread holds the values. A plain read that
+            // races with no write is defined, even though the writes are atomic.
             f32::from_bits(unsafe { bits.read() })
         })
     }
@@ -665,7 +669,10 @@ impl SwapKernel {
         }
     }
 
-    /// `out[k] = ‖value − Vn‖²` for each neighbour `n` (tap `k`) of pixel `(x, y)` of slice `z`.
+    /// `out[k] = ‖value − Vn‖²` for each neighbour `n` (tap `k`) of pixel `(x, y)` of slice `z`:
+    /// [`SwapKernel::for_each_neighbour`]'s taps in its order (tested), with the interior case
+    /// written out, which the compiler turns into a tighter loop than the closure (64×64×32, 32
+    /// swaps per pixel, one thread, six alternating runs, medians: Vec2 2.3 s against 2.55 s).
     #[inline(always)]
     fn gather<const D: usize>(
         &self,
@@ -1128,7 +1135,8 @@ impl SwapKernel {
     /// fuses a multiply and an add), so all give identical bits (tested). AVX2 was 1.3–1.45×
     /// faster than SSE2 (64×64×32, 32 swaps per pixel: Vec2 1.16–1.20 s against 1.67–1.72 s,
     /// UnitVec3 0.94 s against 1.22–1.27 s); AVX-512 is 7–16% faster again (same size, one
-    /// thread, four alternating runs, medians: Vec2 3.35 → 2.8 s, UnitVec3 2.7 → 2.5 s).
+    /// thread, four alternating runs, medians: Vec2 3.35 → 2.8 s, UnitVec3 2.7 → 2.5 s; a set
+    /// of runs earlier than [`Shared::value`]'s, on a slower phase of the VM).
     fn run_tile_fastest(&self, shared: &Shared, tile: &Tile, plan: &PassPlan) -> TileResult {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx512f") {
@@ -1388,6 +1396,40 @@ mod tests {
             }
             for (&build, o) in builds.iter().zip(&simd) {
                 assert_eq!(bits(&portable), bits(o), "{space:?} {build:?}");
+            }
+        }
+    }
+
+    /// `gather`'s written-out interior loop lists the same taps in the same order as
+    /// `for_each_neighbour` (which `apply` uses), for interior, edge and folded pixels.
+    #[test]
+    fn gather_and_for_each_neighbour_agree() {
+        use crate::SampleSpace;
+        for (w, h, d) in [(20, 18, 5), (9, 10, 3), (3, 2, 2), (1, 7, 4)] {
+            let spec = VectorSpec::new(w, h, d, 3, SampleSpace::Vec { dims: 2 });
+            let start = crate::generate_vector(&spec.clone().with_swaps_per_pixel(0.0))
+                .unwrap()
+                .0
+                .values()
+                .to_vec();
+            let o = SwapOptimizer::new(&spec, start);
+            let (k, shared) = (&o.kernel, o.shared());
+            let taps = k.spatial.len() + k.temporal.len();
+            let probe = [0.25f32, -0.5];
+            for z in 0..d {
+                for y in 0..h {
+                    for x in 0..w {
+                        let centre = ((z * h + y) * w + x) as usize;
+                        let mut fast = vec![f32::NAN; taps];
+                        k.gather::<2>(&shared, (x, y, z), centre, &probe, &mut fast);
+                        let mut each = vec![f32::NAN; taps];
+                        k.for_each_neighbour((x, y, z), centre, |t, n| {
+                            each[t] = squared_distance(&probe, &shared.value::<2>(n));
+                        });
+                        let bits = |v: &[f32]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
+                        assert_eq!(bits(&fast), bits(&each), "{w}×{h}×{d} at ({x}, {y}, {z})");
+                    }
+                }
             }
         }
     }
