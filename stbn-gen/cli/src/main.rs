@@ -45,6 +45,12 @@ enum Command {
         /// Output format of the masks.
         #[arg(long, value_enum, default_value_t = OutputFormat::Png)]
         format: OutputFormat,
+        /// Run every swap-optimised mask (the vector kinds and `FilterAdapted`) with this budget
+        /// instead of its manifest's `swaps_per_pixel`: swaps proposed per pixel, 0 to 10000.
+        /// Time grows linearly with it; 16–32 makes quick drafts (BENCHMARKS.md has the time and
+        /// quality per budget). The manifest file is not changed.
+        #[arg(long, value_name = "N", value_parser = parse_swaps_per_pixel, allow_negative_numbers = true)]
+        swaps_per_pixel: Option<f64>,
     },
     /// Analyse folders of `<name>_<z>.png` slices (from `generate` or elsewhere) and write
     /// `<OUT>/report.md`.
@@ -79,13 +85,24 @@ enum Command {
     },
 }
 
+/// `--swaps-per-pixel`: a finite number in the range both swap optimisers accept.
+fn parse_swaps_per_pixel(text: &str) -> std::result::Result<f64, String> {
+    let max = stbn_gen::VectorSpec::MAX_SWAPS_PER_PIXEL
+        .min(stbn_gen::filter_adapted::FilterAdaptedSpec::MAX_SWAPS_PER_PIXEL);
+    match text.parse::<f64>() {
+        Ok(n) if (0.0..=max).contains(&n) => Ok(n),
+        _ => Err(format!("must be a number in 0..={max} (got {text:?})")),
+    }
+}
+
 fn main() -> ExitCode {
     let result = match Cli::parse().command {
         Command::Generate {
             manifest,
             out,
             format,
-        } => generate::run(&manifest, &out, format),
+            swaps_per_pixel,
+        } => generate::run(&manifest, &out, format, swaps_per_pixel),
         Command::Analyze {
             dirs,
             out,

@@ -243,3 +243,71 @@ fn sidecars_name_the_parameters_that_made_the_mask() {
     assert_eq!(v["sigma_image"], 1.9, "{v}");
     assert!(v.get("filter").is_none(), "{v}");
 }
+
+#[test]
+fn swaps_per_pixel_overrides_the_budget_of_swap_optimised_masks_only() {
+    let dir = tempfile::tempdir().unwrap();
+    let manifest = dir.path().join("assets.ron");
+    fs::write(
+        &manifest,
+        r#"(masks: [
+            (name: "v", kind: Vec2, size: (16, 16, 8), seed: 1, encoding: Unorm8,
+             swaps_per_pixel: 6),
+            (name: "fa", kind: FilterAdapted, size: (8, 8, 4), seed: 1, encoding: Unorm8,
+             space: Vec2, swaps_per_pixel: 6),
+            (name: "s", kind: Scalar, size: (16, 16, 8), seed: 1, encoding: Unorm8),
+        ])"#,
+    )
+    .unwrap();
+    let sidecar = |out: &Path, name: &str| -> serde_json::Value {
+        serde_json::from_str(&fs::read_to_string(out.join(format!("{name}/{name}.json"))).unwrap())
+            .unwrap()
+    };
+    let attempted = |sidecar: &serde_json::Value| {
+        let trace = sidecar["trace"].as_array().unwrap();
+        trace.last().unwrap()["swaps_attempted"].as_u64().unwrap()
+    };
+    let (full, quick) = (dir.path().join("full"), dir.path().join("quick"));
+    let output = stbn_gen(&["generate".as_ref(), &manifest, "--out".as_ref(), &full]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    let output = stbn_gen(&[
+        "generate".as_ref(),
+        &manifest,
+        "--out".as_ref(),
+        &quick,
+        "--swaps-per-pixel".as_ref(),
+        "2".as_ref(),
+    ]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+
+    // Every pixel proposes once per pass: 6 passes from the manifest, 2 with the flag.
+    let pixels = 16 * 16 * 8;
+    assert_eq!(sidecar(&full, "v")["swaps_per_pixel"], 6.0);
+    assert_eq!(attempted(&sidecar(&full, "v")), 6 * pixels);
+    assert_eq!(sidecar(&quick, "v")["swaps_per_pixel"], 2.0);
+    assert_eq!(attempted(&sidecar(&quick, "v")), 2 * pixels);
+    assert_eq!(sidecar(&full, "fa")["swaps_per_pixel"], 6.0);
+    assert_eq!(sidecar(&quick, "fa")["swaps_per_pixel"], 2.0);
+    let report = fs::read_to_string(quick.join("report.md")).unwrap();
+    assert!(report.contains("ran 2 swaps per pixel"), "{report}");
+    // The scalar mask has no budget and comes out the same.
+    let slices = |out: &Path| read_slices_png(&out.join("s")).unwrap();
+    assert_eq!(slices(&full), slices(&quick));
+
+    for bad in ["-1", "10001", "NaN", "many"] {
+        let output = stbn_gen(&[
+            "generate".as_ref(),
+            &manifest,
+            "--out".as_ref(),
+            &quick,
+            "--swaps-per-pixel".as_ref(),
+            bad.as_ref(),
+        ]);
+        let stderr = text(&output.stderr);
+        assert_eq!(output.status.code(), Some(2), "{bad}: {stderr}");
+        assert!(
+            stderr.contains("--swaps-per-pixel") && stderr.contains("0..=10000"),
+            "{bad}: {stderr}"
+        );
+    }
+}
