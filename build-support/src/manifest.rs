@@ -431,16 +431,16 @@ impl Manifest {
                     ),
                 ));
             }
-            if let Some(space) = entry.space {
-                if space.sample_space(None).is_none() {
-                    return Err(field_error(
-                        "space",
-                        format!(
-                            "{space:?} is not a vector kind without an image; use one of {}",
-                            FILTER_ADAPTED_SPACES
-                        ),
-                    ));
-                }
+            if let Some(space) = entry.space
+                && space.sample_space(None).is_none()
+            {
+                return Err(field_error(
+                    "space",
+                    format!(
+                        "{space:?} is not a vector kind without an image; use one of {}",
+                        FILTER_ADAPTED_SPACES
+                    ),
+                ));
             }
             if entry.kind == MaskKind::FilterAdapted
                 && raw.octahedral.is_some()
@@ -905,12 +905,13 @@ impl Source<'_> {
             code => {
                 // ron reports a missing comma at the start of the next field: the field that
                 // lacks it is the previous one, and the comma belongs right after its value.
-                if let (E::ExpectedComma, Some(entry), Some(i)) = (code, entry, field_index) {
-                    if i > 0 && entry.fields[i].key.offset == offset {
-                        field_index = Some(i - 1);
-                        let end = entry.fields[i - 1].value_end;
-                        (line, column) = (end.line, end.col);
-                    }
+                if let (E::ExpectedComma, Some(entry), Some(i)) = (code, entry, field_index)
+                    && i > 0
+                    && entry.fields[i].key.offset == offset
+                {
+                    field_index = Some(i - 1);
+                    let end = entry.fields[i - 1].value_end;
+                    (line, column) = (end.line, end.col);
                 }
                 let field = entry
                     .zip(field_index)

@@ -400,7 +400,7 @@ mod tests {
                 .collect();
             let mut tree = ExtremumTree::new(extremum, &energy, &priority);
             for step in 0..3000 {
-                if lcg(&mut rng) % 4 == 0 {
+                if lcg(&mut rng).is_multiple_of(4) {
                     // A run of pixels all worsen (or leave), reported as one range.
                     let start = (lcg(&mut rng) as usize) % pixels;
                     let len = ((lcg(&mut rng) as usize) % 40).min(pixels - start);
@@ -412,7 +412,7 @@ mod tests {
                                     | (*e & ON_BIT)
                             }
                         };
-                        if lcg(&mut rng) % 5 == 0 {
+                        if lcg(&mut rng).is_multiple_of(5) {
                             // Leave the set (or stay out of it).
                             *e = match extremum {
                                 Extremum::Min => *e | ON_BIT,

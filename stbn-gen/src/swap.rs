@@ -1445,7 +1445,7 @@ mod tests {
             for size in 1..100 {
                 for reach in 0..8 {
                     let n = tiles_along(size, reach, target);
-                    assert!(n == 1 || n % 2 == 0);
+                    assert!(n == 1 || n.is_multiple_of(2));
                     if n > 1 {
                         assert!(size / n >= 2 * reach, "{size} {reach} {n}");
                     }

@@ -150,10 +150,10 @@ impl VectorSpec {
                 return Err(SpecError::AxisOutOfRange { field, value }.into());
             }
         }
-        if let SampleSpace::Vec { dims } = self.space {
-            if !self.space.is_valid() {
-                return Err(VectorSpecError::InvalidDims(dims));
-            }
+        if let SampleSpace::Vec { dims } = self.space
+            && !self.space.is_valid()
+        {
+            return Err(VectorSpecError::InvalidDims(dims));
         }
         if self.slice_pixels() > Self::MAX_SLICE_PIXELS || self.pixels() > Self::MAX_PIXELS {
             return Err(VectorSpecError::TooLarge {

@@ -220,10 +220,10 @@ impl FilterAdaptedSpec {
     /// [`FilterAdaptedSpec::validate`] for a vector mask of `space`, which also needs a valid
     /// space.
     pub fn validate_vector(&self, space: &SampleSpace) -> Result<(), FilterAdaptedSpecError> {
-        if let SampleSpace::Vec { dims } = space {
-            if !space.is_valid() {
-                return Err(FilterAdaptedSpecError::InvalidDims(*dims));
-            }
+        if let SampleSpace::Vec { dims } = space
+            && !space.is_valid()
+        {
+            return Err(FilterAdaptedSpecError::InvalidDims(*dims));
         }
         self.validate_dims(space.dims())
     }
