@@ -24,6 +24,19 @@ fn text(bytes: &[u8]) -> String {
     String::from_utf8(bytes.to_vec()).unwrap()
 }
 
+/// Writes `text` as `<dir>/assets.ron` and returns its path.
+fn write_manifest(dir: &Path, text: &str) -> std::path::PathBuf {
+    let manifest = dir.join("assets.ron");
+    fs::write(&manifest, text).unwrap();
+    manifest
+}
+
+/// The JSON sidecar `generate` wrote for vector mask `name` into `out`.
+fn sidecar(out: &Path, name: &str) -> serde_json::Value {
+    serde_json::from_str(&fs::read_to_string(out.join(format!("{name}/{name}.json"))).unwrap())
+        .unwrap()
+}
+
 /// Asserts a clean failure: status 1, one `error: ` line naming `needle`, no panic.
 fn assert_fails_naming(output: &Output, needle: &str) {
     let stderr = text(&output.stderr);
@@ -199,8 +212,7 @@ fn vector_masks_are_rgba_slices_with_the_pdf_in_alpha_and_a_sidecar_with_the_tra
         assert!((norm - 1.0).abs() < 1e-3, "{v:?}");
     }
 
-    let sidecar: serde_json::Value =
-        serde_json::from_str(&fs::read_to_string(out.join("points/points.json")).unwrap()).unwrap();
+    let sidecar = sidecar(&out, "points");
     assert_eq!(sidecar["pdf_channel"], 2);
     assert_eq!(
         sidecar["png_layout"],
@@ -216,25 +228,19 @@ fn vector_masks_are_rgba_slices_with_the_pdf_in_alpha_and_a_sidecar_with_the_tra
 #[test]
 fn sidecars_name_the_parameters_that_made_the_mask() {
     let dir = tempfile::tempdir().unwrap();
-    let manifest = dir.path().join("assets.ron");
-    fs::write(
-        &manifest,
+    let manifest = write_manifest(
+        dir.path(),
         r#"(masks: [
             (name: "fa", kind: FilterAdapted, size: (8, 8, 4), seed: 1, encoding: Unorm8,
              space: Vec2, swaps_per_pixel: 1),
             (name: "v", kind: Vec2, size: (8, 8, 4), seed: 1, encoding: Unorm8,
              swaps_per_pixel: 1),
         ])"#,
-    )
-    .unwrap();
+    );
     let out = dir.path().join("out");
     let output = stbn_gen(&["generate".as_ref(), &manifest, "--out".as_ref(), &out]);
     assert!(output.status.success(), "{}", text(&output.stderr));
-    let sidecar = |name: &str| -> serde_json::Value {
-        serde_json::from_str(&fs::read_to_string(out.join(format!("{name}/{name}.json"))).unwrap())
-            .unwrap()
-    };
-    let (fa, v) = (sidecar("fa"), sidecar("v"));
+    let (fa, v) = (sidecar(&out, "fa"), sidecar(&out, "v"));
     assert!(fa["filter"].as_str().unwrap().contains("Gaussian"), "{fa}");
     assert!(
         fa.get("sigma_image").is_none() && fa.get("sigma_value").is_none(),
@@ -247,9 +253,8 @@ fn sidecars_name_the_parameters_that_made_the_mask() {
 #[test]
 fn swaps_per_pixel_overrides_the_budget_of_swap_optimised_masks_only() {
     let dir = tempfile::tempdir().unwrap();
-    let manifest = dir.path().join("assets.ron");
-    fs::write(
-        &manifest,
+    let manifest = write_manifest(
+        dir.path(),
         r#"(masks: [
             (name: "v", kind: Vec2, size: (16, 16, 8), seed: 1, encoding: Unorm8,
              swaps_per_pixel: 6),
@@ -257,12 +262,7 @@ fn swaps_per_pixel_overrides_the_budget_of_swap_optimised_masks_only() {
              space: Vec2, swaps_per_pixel: 6),
             (name: "s", kind: Scalar, size: (16, 16, 8), seed: 1, encoding: Unorm8),
         ])"#,
-    )
-    .unwrap();
-    let sidecar = |out: &Path, name: &str| -> serde_json::Value {
-        serde_json::from_str(&fs::read_to_string(out.join(format!("{name}/{name}.json"))).unwrap())
-            .unwrap()
-    };
+    );
     let attempted = |sidecar: &serde_json::Value| {
         let trace = sidecar["trace"].as_array().unwrap();
         trace.last().unwrap()["swaps_attempted"].as_u64().unwrap()
