@@ -533,8 +533,9 @@ impl Scratch {
 ///
 /// Invariant (what [`Shared::value`]'s plain reads rely on): no pixel is written by one thread
 /// while another reads or writes it. The tile colouring guarantees it during a pass; anything
-/// that runs tiles concurrently must keep it. Writes are relaxed atomic stores (plain stores once compiled), which make that
-/// sharing expressible; the hot reads of values are plain loads ([`Shared::value`]).
+/// that runs tiles concurrently must keep it. Writes are relaxed atomic stores (plain stores
+/// once compiled), which make that sharing expressible; the hot reads of values are plain
+/// loads.
 struct Shared<'s> {
     /// `f32` bits, index `pixel · dims + c`.
     values: &'s [AtomicU32],

@@ -49,7 +49,12 @@ enum Command {
         /// instead of its manifest's `swaps_per_pixel`: swaps proposed per pixel, 0 to 10000.
         /// Time grows linearly with it; 16–32 makes quick drafts (BENCHMARKS.md has the time and
         /// quality per budget). The manifest file is not changed.
-        #[arg(long, value_name = "N", value_parser = parse_swaps_per_pixel, allow_negative_numbers = true)]
+        #[arg(
+            long,
+            value_name = "N",
+            value_parser = parse_swaps_per_pixel,
+            allow_negative_numbers = true
+        )]
         swaps_per_pixel: Option<f64>,
     },
     /// Analyse folders of `<name>_<z>.png` slices (from `generate` or elsewhere) and write
