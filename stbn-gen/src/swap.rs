@@ -483,13 +483,14 @@ struct Scratch {
     factor: Vec<f32>,
     /// `weight · value factor` after the swap, then the change of the neighbour's energy.
     term: Vec<f64>,
-    /// Taps of one pixel (`a`'s entries are `..taps`); all entries, and rounded up to lanes.
+    /// Taps of one pixel (`a`'s entries are `..taps`); all entries (the buffers hold that many
+    /// rounded up to whole lanes).
     taps: usize,
     len: usize,
-    padded: usize,
     /// The entries of the pair `(a, b)` (`b` among `a`'s taps, `a` among `b`'s), if they
-    /// interact.
+    /// interact, and the pair's energy `w_ab f_ab` (0 if not), which the swap leaves unchanged.
     pair: Option<(usize, usize)>,
+    pair_energy: f64,
 }
 
 impl Scratch {
@@ -514,8 +515,18 @@ impl Scratch {
             term: vec![0.0; padded],
             taps,
             len,
-            padded,
             pair: None,
+            pair_energy: 0.0,
+        }
+    }
+
+    /// Sets the value factors of the pair `(a, b)` to 0: its energy is the same before and after
+    /// the swap, so it stays out of both pixels' sums.
+    #[inline(always)]
+    fn drop_pair_factors(&mut self) {
+        if let Some((ka, kb)) = self.pair {
+            self.factor[ka] = 0.0;
+            self.factor[kb] = 0.0;
         }
     }
 
@@ -744,24 +755,20 @@ impl SwapKernel {
         self.gather::<D>(shared, (b.0, b.1, z), ib, &va, after_b);
         let inv = self.inv_sigma_value_sq;
         value_factors::<D>(&scratch.after, &mut scratch.factor, inv);
-        // The pair (a, b) keeps its energy: leave it out of both sums.
         scratch.pair = self
             .spatial_tap(a, b)
             .zip(self.spatial_tap(b, a))
             .map(|(ka, kb)| (ka, taps + kb));
-        if let Some((ka, kb)) = scratch.pair {
-            scratch.factor[ka] = 0.0;
-            scratch.factor[kb] = 0.0;
-        }
+        scratch.drop_pair_factors();
         scratch.weigh();
         let after = lane_sum(&scratch.term[..scratch.len]);
-        let pair = match scratch.pair {
+        scratch.pair_energy = match scratch.pair {
             Some((_, kb)) => {
                 scratch.weight[kb] * f64::from(value_factor::<D>(squared_distance(&va, &vb), inv))
             }
             None => 0.0,
         };
-        let delta = after - (shared.energy(ia) + shared.energy(ib)) + 2.0 * pair;
+        let delta = after - (shared.energy(ia) + shared.energy(ib)) + 2.0 * scratch.pair_energy;
         (delta, ia, ib)
     }
 
@@ -777,17 +784,10 @@ impl SwapKernel {
         (ia, ib): (usize, usize),
         scratch: &mut Scratch,
     ) {
-        let (taps, count, padded) = (scratch.taps, scratch.len, scratch.padded);
+        let (taps, count) = (scratch.taps, scratch.len);
         let e_a = lane_sum(&scratch.term[..taps]);
         let e_b = lane_sum(&scratch.term[taps..count]);
-        let inv = self.inv_sigma_value_sq;
         let (va, vb) = (shared.value::<D>(ia), shared.value::<D>(ib));
-        let pair = match scratch.pair {
-            Some((_, kb)) => {
-                scratch.weight[kb] * f64::from(value_factor::<D>(squared_distance(&va, &vb), inv))
-            }
-            None => 0.0,
-        };
         for (centre, at, value, first) in [(ia, a, &va, 0), (ib, b, &vb, taps)] {
             let (index, before) = (&mut scratch.index, &mut scratch.before);
             self.for_each_neighbour((at.0, at.1, z), centre, |k, n| {
@@ -796,14 +796,11 @@ impl SwapKernel {
             });
         }
         value_factors::<D>(
-            &scratch.before[..padded],
-            &mut scratch.factor[..padded],
-            inv,
+            &scratch.before,
+            &mut scratch.factor,
+            self.inv_sigma_value_sq,
         );
-        if let Some((ka, kb)) = scratch.pair {
-            scratch.factor[ka] = 0.0;
-            scratch.factor[kb] = 0.0;
-        }
+        scratch.drop_pair_factors();
         let entries = scratch.weight.iter().zip(&scratch.factor);
         for (term, (&w, &f)) in scratch.term.iter_mut().zip(entries) {
             *term -= w * f64::from(f);
@@ -815,8 +812,8 @@ impl SwapKernel {
                 shared.set_energy(n, shared.energy(n) + scratch.term[k]);
             }
         }
-        shared.set_energy(ia, e_a + pair);
-        shared.set_energy(ib, e_b + pair);
+        shared.set_energy(ia, e_a + scratch.pair_energy);
+        shared.set_energy(ib, e_b + scratch.pair_energy);
         shared.swap_values::<D>(ia, ib);
     }
 
