@@ -166,11 +166,9 @@ pub fn write_rgb_png(pixels: &[u8], (width, height): (u32, u32), path: &Path) ->
     Ok(())
 }
 
-/// The RGB pixels of `plot`, row-major; `text` draws the title, ticks, axis titles and legend
-/// (it needs a registered font).
 /// Draws the x-axis title centred 24 pixels below the plot area and the y-axis title rotated,
-/// `y_title_left` pixels from the image's left edge; `corners` are the plot area's bottom-left
-/// and top-right corners in pixels. Shared with the trade study's charts.
+/// `y_title_left` pixels from the image's left edge; `((left, bottom), (right, top))` are the
+/// plot area's bottom-left and top-right corners in pixels. Shared with the trade study's charts.
 pub(crate) fn draw_axis_titles(
     root: &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>,
     font: &TextStyle<'_>,
@@ -195,6 +193,8 @@ pub(crate) fn draw_axis_titles(
     Ok(())
 }
 
+/// The RGB pixels of `plot`, row-major; `text` draws the title, ticks, axis titles and legend
+/// (it needs a registered font).
 fn render(plot: &Plot, text: bool) -> std::result::Result<Vec<u8>, Box<dyn std::error::Error>> {
     let mut pixels = vec![0u8; SIZE.0 as usize * SIZE.1 as usize * 3];
     {
