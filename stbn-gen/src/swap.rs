@@ -65,6 +65,29 @@
 //! of the values (converged faster at first, stalled 0.2% higher), 32 or 64 candidates (no better
 //! per pass, slower), partners nearer in space, proposals from the highest-energy pixels, a
 //! screen on the nearest taps, and long-range partners.
+//!
+//! Session 6 looked for a move that shortens the tail, the part a much longer run still gains
+//! (BENCHMARKS.md, "Vector masks"). All of these were run on 64×64×32 with seed 1 and throw-away
+//! code. None beat the default's energy, or its filtered error, for the same time:
+//! - **Partners picked by a linearised delta.** The delta was predicted as
+//!   `(∇_a E − ∇_b E)·(vb − va)`, using the analytic gradient of every pixel's energy. The
+//!   prediction correlates with the exact delta (r = 0.82). But it picked improving swaps no
+//!   more often than the nearest value did. After 128 passes, out of the same 16 candidates:
+//!   1.17% of proposals improved against 1.14%. Even the best of the 16 by exact delta improved
+//!   only 1.26%. After 1024 passes the three were 0.13%, 0.13% and 0.14%. Improving swaps are
+//!   scarce, not hidden among the candidates.
+//! - **The nearest value in the whole tile.** After 128 passes, 17% of pixels have an improving
+//!   partner somewhere in their 16 × 16 tile. 49% of those partners hold the value nearest the
+//!   pixel's own, and 86% are among its 4 nearest. So, from pass 40 on, each proposal went to
+//!   the nearest value of the tile, found by scanning it. At 128 passes this took 12.6 s
+//!   against 5.5 s. Energy per pixel was 3.275579 against 3.275569 (Vec2) and 1.599803 against
+//!   1.600739 (UnitVec3). Filtered error was 0.00839 against 0.00847 (Vec2) and 0.00940 against
+//!   0.00946 (UnitVec3). The default's 256 passes took less time, 9.4 s, and did better still:
+//!   3.273994 and 0.00837 (Vec2), 1.597559 and 0.00935 (UnitVec3).
+//! - **A coarse phase first.** 16 or 32 passes at σi 2.7 or 3.5, which weights lower
+//!   frequencies, then σi 1.9 for the rest of 128 passes. Filtered error stayed at 0.00846–0.00848
+//!   (Vec2) and 0.00946–0.00950 (UnitVec3), the default's within noise. The energy per pixel
+//!   ended higher: 3.27619–3.27645 against 3.27557.
 
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicU32, AtomicU64, Ordering::Relaxed};
