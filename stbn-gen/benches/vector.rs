@@ -15,7 +15,7 @@
 //! and what a renderer sees: the low-band power of component 0, FAST's filtered error with random
 //! half-space thresholds at the last frame, and for Vec2 the 2D integration errors (Monte Carlo
 //! RMSE after `depth/2` frames, EMA RMSE at the last frame) of the disc, Gaussian and diagonal
-//! step.
+//! step. `STBN_VECTOR_ASSIGNMENT=N` adds `N` assignment passes after each budget's swaps.
 
 use std::time::Instant;
 
@@ -115,9 +115,12 @@ fn quality(_: &mut Criterion) {
         .map(|s| s.parse().unwrap())
         .collect();
     let seed: u64 = std::env::var("STBN_VECTOR_SEED").map_or(1, |s| s.parse().unwrap());
+    let assignment: u32 = std::env::var("STBN_VECTOR_ASSIGNMENT").map_or(0, |s| s.parse().unwrap());
     for (space, signed) in spaces() {
         for &budget in &budgets {
-            let spec = VectorSpec::new(w, h, d, seed, space.clone()).with_swaps_per_pixel(budget);
+            let spec = VectorSpec::new(w, h, d, seed, space.clone())
+                .with_swaps_per_pixel(budget)
+                .with_assignment_passes(assignment);
             let start = Instant::now();
             let (volume, trace) = generate_vector(&spec).unwrap();
             let seconds = start.elapsed().as_secs_f64();
@@ -126,7 +129,8 @@ fn quality(_: &mut Criterion) {
             let fields = fields(&volume, &values);
             let filtered = filtered_error_vector(&fields, FilteredErrorOptions::default()).unwrap();
             println!(
-                "{} {w}x{h}x{d}, seed {seed}, {budget} swaps/pixel: {seconds:.1} s, \
+                "{} {w}x{h}x{d}, seed {seed}, {budget} swaps/pixel, {assignment} assignment \
+                 passes: {seconds:.1} s, \
                  energy/pixel {energy:.6}, \
                  c0 spatial {:.4} temporal {:.4}, filtered error (half-spaces) {:.5}",
                 space.name(),

@@ -65,6 +65,13 @@ pub struct VectorSpec {
     /// proposes one swap; a fractional part runs a partial last pass. 0 keeps the random
     /// arrangement of the stratified sets.
     pub swaps_per_pixel: f64,
+    /// Assignment passes run after the swap passes, in
+    /// `0..=`[`VectorSpec::MAX_ASSIGNMENT_PASSES`]: in each, sets of
+    /// [`crate::swap::ASSIGNMENT_SET`] pixels with similar values that do not interact get the
+    /// best permutation of their values ([`crate::swap::SwapOptimizer::run_assignment_pass`]).
+    /// One costs about as much as 4–5 swap passes and, after the default's 128 swap passes,
+    /// lowers the energy as much as 20–30 of them (BENCHMARKS.md).
+    pub assignment_passes: u32,
     /// Pair weights `exp(−‖p−q‖²/σi²)` below this are dropped, in `(0, 1)`. The default 5·10⁻³
     /// keeps offsets up to `σi √ln 200 = 2.3 σi` (4.4 pixels at σi 1.9: 56 same-slice and 8
     /// same-position neighbours).
@@ -87,6 +94,8 @@ impl VectorSpec {
     pub const DEFAULT_KERNEL_TOLERANCE: f64 = 5e-3;
     /// Largest budget accepted.
     pub const MAX_SWAPS_PER_PIXEL: f64 = 10_000.0;
+    /// Largest number of assignment passes accepted.
+    pub const MAX_ASSIGNMENT_PASSES: u32 = 1000;
     /// Largest extent of one axis.
     pub const MAX_AXIS: u32 = MaskSpec::MAX_AXIS;
     /// Largest number of pixels of one slice.
@@ -105,6 +114,7 @@ impl VectorSpec {
             sigma_image: Self::DEFAULT_SIGMA_IMAGE,
             sigma_value: Self::DEFAULT_SIGMA_VALUE,
             swaps_per_pixel: Self::DEFAULT_SWAPS_PER_PIXEL,
+            assignment_passes: 0,
             kernel_tolerance: Self::DEFAULT_KERNEL_TOLERANCE,
             initial_arrangement: InitialArrangement::ScalarStbn,
         }
@@ -113,6 +123,12 @@ impl VectorSpec {
     /// The same spec with another budget.
     pub fn with_swaps_per_pixel(mut self, swaps_per_pixel: f64) -> VectorSpec {
         self.swaps_per_pixel = swaps_per_pixel;
+        self
+    }
+
+    /// The same spec with `passes` assignment passes after the swaps.
+    pub fn with_assignment_passes(mut self, passes: u32) -> VectorSpec {
+        self.assignment_passes = passes;
         self
     }
 
@@ -177,6 +193,11 @@ impl VectorSpec {
         if !(0.0..=Self::MAX_SWAPS_PER_PIXEL).contains(&self.swaps_per_pixel) {
             return Err(VectorSpecError::InvalidBudget(self.swaps_per_pixel));
         }
+        if self.assignment_passes > Self::MAX_ASSIGNMENT_PASSES {
+            return Err(VectorSpecError::InvalidAssignmentPasses(
+                self.assignment_passes,
+            ));
+        }
         Ok(())
     }
 }
@@ -201,6 +222,8 @@ pub enum VectorSpecError {
     },
     /// `swaps_per_pixel` is NaN, negative or above [`VectorSpec::MAX_SWAPS_PER_PIXEL`].
     InvalidBudget(f64),
+    /// `assignment_passes` is above [`VectorSpec::MAX_ASSIGNMENT_PASSES`].
+    InvalidAssignmentPasses(u32),
 }
 
 impl From<SpecError> for VectorSpecError {
@@ -233,6 +256,11 @@ impl fmt::Display for VectorSpecError {
                 f,
                 "`swaps_per_pixel` is {value}; it must be in 0..={}",
                 VectorSpec::MAX_SWAPS_PER_PIXEL
+            ),
+            VectorSpecError::InvalidAssignmentPasses(value) => write!(
+                f,
+                "`assignment_passes` is {value}; it must be in 0..={}",
+                VectorSpec::MAX_ASSIGNMENT_PASSES
             ),
         }
     }
@@ -338,12 +366,12 @@ impl VectorVolume {
 /// state, before any swap).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TracePoint {
-    /// Swaps proposed so far.
+    /// Swaps proposed so far (an assignment pass's moves count one each).
     pub swaps_attempted: u64,
-    /// Swaps kept so far.
+    /// Swaps kept so far (an assignment pass's kept permutations count one each).
     pub swaps_accepted: u64,
     /// The mask's energy ([`crate::swap`]): the initial energy computed from scratch plus the
-    /// exact delta of every accepted swap.
+    /// exact delta of every accepted swap or permutation.
     pub energy: f64,
 }
 
@@ -359,7 +387,7 @@ pub struct EnergyTrace {
 pub struct VectorProgress {
     /// Passes of the budget completed, counting quarter passes as 0.25.
     pub passes_done: f64,
-    /// Passes the budget asks for (`⌈swaps_per_pixel⌉`).
+    /// Passes the budget asks for (`⌈swaps_per_pixel⌉` swap passes, then `assignment_passes`).
     pub passes: u64,
     /// Swaps proposed so far.
     pub swaps_attempted: u64,
@@ -429,6 +457,7 @@ pub fn generate_vector_with_progress(
         }],
     };
     let passes = spec.swaps_per_pixel.ceil() as u64;
+    let all_passes = passes + u64::from(spec.assignment_passes);
     for pass in 0..passes {
         let fraction = (spec.swaps_per_pixel - pass as f64).min(1.0);
         let mut quarter = 0;
@@ -436,7 +465,21 @@ pub fn generate_vector_with_progress(
             quarter += 1;
             progress(VectorProgress {
                 passes_done: pass as f64 + 0.25 * f64::from(quarter),
-                passes,
+                passes: all_passes,
+                swaps_attempted: o.swaps_attempted(),
+                swaps_accepted: o.swaps_accepted(),
+                energy: o.energy(),
+            })
+        });
+        trace.points.push(point);
+    }
+    for pass in 0..spec.assignment_passes {
+        let mut quarter = 0;
+        let point = optimizer.run_assignment_pass(crate::swap::ASSIGNMENT_SET, &mut |o| {
+            quarter += 1;
+            progress(VectorProgress {
+                passes_done: (passes + u64::from(pass)) as f64 + 0.25 * f64::from(quarter),
+                passes: all_passes,
                 swaps_attempted: o.swaps_attempted(),
                 swaps_accepted: o.swaps_accepted(),
                 energy: o.energy(),
