@@ -370,6 +370,12 @@ mod tests {
             s.swaps_per_pixel = 0.5
         }));
         keys.push(vector(SampleSpace::UnitVec3, true, &|s| s.seed = 9));
+        keys.push(vector(SampleSpace::UnitVec3, true, &|s| {
+            s.assignment_passes = 8
+        }));
+        keys.push(vector(SampleSpace::UnitVec3, true, &|s| {
+            s.assignment_passes = 9
+        }));
         let unique: std::collections::HashSet<_> = keys.iter().collect();
         assert_eq!(unique.len(), keys.len());
         assert_eq!(key(&base), key(&base.clone()));

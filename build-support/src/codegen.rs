@@ -101,9 +101,14 @@ fn declare(out: &mut String, mask: &EmbeddedMask<'_>, path: &str) {
         ),
         Method::Baseline(_) => format!("Seed {}.", entry.seed),
         Method::Swap => format!(
-            "Seed {}; swap optimiser with σ {} pixels/frames, value σ {}, {} swaps per pixel.\n\
+            "Seed {}; swap optimiser with σ {} pixels/frames, value σ {}, {} swaps per pixel, \
+             {} assignment passes.\n\
              /// * Read it with `sample_vector` / `sample_vec2..4` / `sample_pdf`.",
-            entry.seed, entry.sigma, entry.sigma_value, entry.swaps_per_pixel
+            entry.seed,
+            entry.sigma,
+            entry.sigma_value,
+            entry.swaps_per_pixel,
+            entry.assignment_passes
         ),
         Method::FilterAdapted => format!(
             "Seed {}; optimised for a {} × {} filter ({}), {} swaps per pixel.\n/// * {}",
@@ -159,6 +164,7 @@ mod tests {
             kernel_tolerance: 1e-3,
             sigma_value: 1.0,
             swaps_per_pixel: 16.0,
+            assignment_passes: 0,
             image: None,
             octahedral: true,
             spatial_filter: stbn_gen::filter_adapted::SpatialFilter::DEFAULT,

@@ -37,6 +37,7 @@
 //!             image: "sky.hdr",       // image kinds only; relative to the manifest
 //!             sigma_value: 1.0,       // optional, σs of the value term
 //!             swaps_per_pixel: 8.0,   // optional, the optimiser's budget
+//!             assignment_passes: 8,   // optional, exact k-pixel passes after the swaps (default 0)
 //!             octahedral: true,       // optional, 3D unit kinds: store 2 octahedral channels (default)
 //!             encoding: Unorm16,
 //!         ),
@@ -265,6 +266,9 @@ pub struct MaskEntry {
     /// Vector kinds: the swap optimiser's budget in attempted swaps per pixel (default
     /// [`VectorSpec`]'s).
     pub swaps_per_pixel: f64,
+    /// Vector kinds: assignment passes after the swaps (default 0; see
+    /// [`VectorSpec::assignment_passes`]).
+    pub assignment_passes: u32,
     /// Image kinds: the image the values are importance-sampled from.
     pub image: Option<ImageSource>,
     /// 3D unit-vector kinds: store two octahedral channels instead of three signed ones
@@ -332,6 +336,7 @@ impl MaskEntry {
         spec.sigma_image = self.sigma;
         spec.sigma_value = self.sigma_value;
         spec.swaps_per_pixel = self.swaps_per_pixel;
+        spec.assignment_passes = self.assignment_passes;
         spec.kernel_tolerance = self.kernel_tolerance;
         Some(spec)
     }
@@ -495,6 +500,13 @@ impl Manifest {
                             VectorSpec::MAX_SWAPS_PER_PIXEL
                         ),
                     ),
+                    VectorSpecError::InvalidAssignmentPasses(value) => (
+                        "assignment_passes",
+                        format!(
+                            "must be in 0..={} (got {value})",
+                            VectorSpec::MAX_ASSIGNMENT_PASSES
+                        ),
+                    ),
                     // Every Vec kind has 1..=4 dimensions; keep the message if that changes.
                     VectorSpecError::InvalidDims(_) => ("kind", e.to_string()),
                 };
@@ -546,6 +558,8 @@ struct RawMask {
     #[serde(default)]
     swaps_per_pixel: Option<f64>,
     #[serde(default)]
+    assignment_passes: Option<u32>,
+    #[serde(default)]
     image: Option<String>,
     #[serde(default)]
     octahedral: Option<bool>,
@@ -573,6 +587,7 @@ impl RawMask {
             ("kernel_tolerance", self.kernel_tolerance.is_some()),
             ("sigma_value", self.sigma_value.is_some()),
             ("swaps_per_pixel", self.swaps_per_pixel.is_some()),
+            ("assignment_passes", self.assignment_passes.is_some()),
             ("image", self.image.is_some()),
             ("octahedral", self.octahedral.is_some()),
             ("spatial_filter", self.spatial_filter.is_some()),
@@ -610,6 +625,9 @@ impl RawMask {
                 .unwrap_or(MaskSpec::DEFAULT_KERNEL_TOLERANCE),
             sigma_value: self.sigma_value.unwrap_or(vector_defaults.sigma_value),
             swaps_per_pixel: self.swaps_per_pixel.unwrap_or(default_swaps),
+            assignment_passes: self
+                .assignment_passes
+                .unwrap_or(vector_defaults.assignment_passes),
             image: None,
             octahedral: self.octahedral.unwrap_or(true),
             spatial_filter: self
@@ -709,7 +727,10 @@ fn applies(kind: MaskKind, field: &str) -> bool {
             "sigma" | "density" | "kernel_tolerance",
         ) => true,
         (Method::Baseline(BaselineKind::TellusimLayered), "sigma" | "density") => true,
-        (Method::Swap, "sigma" | "sigma_value" | "swaps_per_pixel" | "kernel_tolerance") => true,
+        (
+            Method::Swap,
+            "sigma" | "sigma_value" | "swaps_per_pixel" | "assignment_passes" | "kernel_tolerance",
+        ) => true,
         (Method::Swap, "image") => kind.needs_image(),
         (Method::Swap, "octahedral") => kind.is_direction3(),
         (
@@ -733,6 +754,7 @@ fn applies_to(field: &str) -> &'static str {
         }
         "sigma_value" => "the vector kinds (Vec1 … EnvironmentMap)",
         "swaps_per_pixel" => "the vector kinds (Vec1 … EnvironmentMap) and FilterAdapted",
+        "assignment_passes" => "the vector kinds (Vec1 … EnvironmentMap)",
         "image" => "ImagePoints and EnvironmentMap",
         "octahedral" => {
             "UnitVec3, UniformHemisphere, CosineHemisphere, EnvironmentMap and FilterAdapted \
@@ -1067,6 +1089,29 @@ mod tests {
             e.message(),
             "height (second element) is 70000; it must be in 1..=65536"
         );
+    }
+
+    #[test]
+    fn assignment_passes_reach_the_vector_spec_and_only_vector_kinds() {
+        let vec2 = manifest("").replace("kind: Scalar", "kind: Vec2");
+        let entry = Manifest::parse(&vec2, "m.ron").unwrap().masks()[0].clone();
+        assert_eq!(entry.vector_spec().unwrap().assignment_passes, 0);
+        let text =
+            manifest("            assignment_passes: 8,\n").replace("kind: Scalar", "kind: Vec2");
+        let entry = Manifest::parse(&text, "m.ron").unwrap().masks()[0].clone();
+        assert_eq!(entry.vector_spec().unwrap().assignment_passes, 8);
+        let text = manifest("            assignment_passes: 1001,\n")
+            .replace("kind: Scalar", "kind: Vec2");
+        let e = Manifest::parse(&text, "m.ron").unwrap_err();
+        assert_eq!(e.field(), Some("assignment_passes"));
+        assert_eq!(e.message(), "must be in 0..=1000 (got 1001)");
+        for kind in ["Scalar", "FilterAdapted"] {
+            let text = manifest("            assignment_passes: 8,\n")
+                .replace("kind: Scalar", &format!("kind: {kind}"));
+            let e = Manifest::parse(&text, "m.ron").unwrap_err();
+            assert_eq!(e.field(), Some("assignment_passes"), "{kind}");
+            assert!(e.message().contains("the vector kinds"), "{}", e.message());
+        }
     }
 
     #[test]

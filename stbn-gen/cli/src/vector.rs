@@ -144,6 +144,9 @@ struct Sidecar<'a> {
     #[serde(skip_serializing_if = "Option::is_none")]
     sigma_value: Option<f64>,
     swaps_per_pixel: f64,
+    /// Assignment passes after the swaps (absent for filter-adapted masks).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    assignment_passes: Option<u32>,
     /// The filters a filter-adapted mask was optimised for (absent otherwise).
     #[serde(skip_serializing_if = "Option::is_none")]
     filter: Option<String>,
@@ -221,6 +224,7 @@ pub fn write_sidecar(
         sigma_image: (!filter_adapted).then_some(entry.sigma),
         sigma_value: (!filter_adapted).then_some(entry.sigma_value),
         swaps_per_pixel: entry.swaps_per_pixel,
+        assignment_passes: (!filter_adapted).then_some(entry.assignment_passes),
         filter: filter_adapted.then(|| {
             format!(
                 "spatial {:?}, temporal {:?}, combination {:?}",

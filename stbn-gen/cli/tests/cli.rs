@@ -234,7 +234,7 @@ fn sidecars_name_the_parameters_that_made_the_mask() {
             (name: "fa", kind: FilterAdapted, size: (8, 8, 4), seed: 1, encoding: Unorm8,
              space: Vec2, swaps_per_pixel: 1),
             (name: "v", kind: Vec2, size: (8, 8, 4), seed: 1, encoding: Unorm8,
-             swaps_per_pixel: 1),
+             swaps_per_pixel: 1, assignment_passes: 2),
         ])"#,
     );
     let out = dir.path().join("out");
@@ -248,6 +248,10 @@ fn sidecars_name_the_parameters_that_made_the_mask() {
     );
     assert_eq!(v["sigma_image"], 1.9, "{v}");
     assert!(v.get("filter").is_none(), "{v}");
+    // One trace row per swap pass and per assignment pass, after the start.
+    assert_eq!(v["assignment_passes"], 2, "{v}");
+    assert_eq!(v["trace"].as_array().unwrap().len(), 1 + 1 + 2, "{v}");
+    assert!(fa.get("assignment_passes").is_none(), "{fa}");
 }
 
 #[test]
