@@ -89,30 +89,26 @@
 //!   (Vec2) and 0.00946–0.00950 (UnitVec3), the default's within noise. The energy per pixel
 //!   ended higher: 3.27619–3.27645 against 3.27557.
 //!
-//! **Promising, not built: re-assigning the values of k pixels at once.** Take k pixels of one
-//! slice that do not interact with each other (no offset between two of them is a tap) and whose
-//! values are close. Permuting their values then changes the energy by
-//! `Σ_i c(p_i, v_π(i)) − Σ_i c(p_i, v_i)`, where `c(p, v) = Σ_{n ∈ N(p)} w f(‖v − Vn‖²)`. The
-//! pixels' neighbours stay fixed, so the terms separate, and the best of all k! permutations is
-//! a linear assignment problem: exact, solved with the Hungarian method in O(k³). A pair swap is
-//! the case k = 2. The probe used f64 code that was not vectorised, starting from the default's
-//! 128 passes. Each move took the k pixels, nearest in value to a random pixel, from a window
-//! around it, and kept the best permutation if it lowered the energy. Cost is counted in
-//! `c(p, v)` evaluations, since a default proposal makes two.
-//! - Vec2, k = 8, 24-pixel window, values within 0.3: after the cost of 64 default passes, the
-//!   energy per pixel was 3.273588 and the filtered error 0.00831. The default's next 128
-//!   passes, twice the cost, reach only 3.273994 and 0.00837. Its 1024 passes reach 3.272326
-//!   and 0.00826.
-//! - k = 16 in a 32-pixel window: 3.273277 and 0.00834.
-//! - UnitVec3, k = 8, chord 0.5: 1.596287 and 0.00929, where the default's next 128 passes reach
-//!   1.597559 and 0.00935.
+//! # Assignment passes
 //!
-//! The energy the default's next 128 passes reach took the cost of about 40 passes (Vec2) or
-//! 32 (UnitVec3): 3–4× less work. The probe's own run times say nothing, because its code was
-//! not vectorised. The tail still shrinks by a falling step (Vec2, per 16 passes' cost:
-//! −0.00093, −0.00049, −0.00032, −0.00023 per pixel), so a run 8× longer would still gain.
-//! Building it means a vectorised cost matrix, sets chosen inside the tile colouring, new output
-//! bits (a GENERATOR_VERSION bump) and re-measuring every vector figure.
+//! Opt-in ([`crate::VectorSpec::assignment_passes`], after the swap passes): a move re-assigns the
+//! values of up to [`ASSIGNMENT_SET`] pixels of one slice at once. The pixels hold similar
+//! values and do not interact with each other (no offset between two of them is a tap), so
+//! permuting their values changes the energy by `Σ_i c(p_i, v_π(i)) − Σ_i c(p_i, v_i)`, where
+//! `c(p, v) = Σ_{n ∈ N(p)} w f(‖v − Vn‖²)`: the pixels' neighbours stay fixed, so the terms
+//! separate, and the best of all k! permutations is a linear assignment problem, solved exactly
+//! by the Hungarian method in O(k³) (`min_cost_assignment`). A pair swap is the case k = 2.
+//! The best permutation is kept if it lowers the energy by more than `k` margins; the pixel
+//! energies are updated as for a swap. Tiles are [`ASSIGNMENT_TILE_TARGET`] pixels wide and
+//! coloured as for swaps, so the passes are deterministic for any thread count (tested).
+//!
+//! Why: after the default's 128 swap passes, improving swaps are scarce (above), but improving
+//! permutations of similar values are not. A session-6 probe (64×64×32, seed 1, f64 code,
+//! cost counted in `c(p, v)` evaluations, two per swap proposal) reached the energy of the
+//! default's next 128 swap passes for the cost of 32–40. In 16-pixel tiles the sets found few
+//! similar values (16 passes: Vec2 energy per pixel 3.274653); in 32-pixel tiles, 3.272816,
+//! below the 3.273994 of 128 more swap passes (BENCHMARKS.md, "Vector masks", has the
+//! 128×128×64 figures).
 
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicU32, AtomicU64, Ordering::Relaxed};
@@ -1122,11 +1118,11 @@ impl SwapOptimizer {
     /// An assignment pass ([module docs](self)): in tiles about [`ASSIGNMENT_TILE_TARGET`]
     /// pixels wide, coloured like a swap pass's, each slice makes `⌈n / k⌉` moves (`n` the
     /// tile's pixels; `k` clamped to `2..=`[`MAX_ASSIGNMENT`]). A move takes a random anchor
-    /// pixel of the tile, then, nearest value first among the [`ASSIGNMENT_SHORTLIST`] values
+    /// pixel of the tile, then, nearest value first among the `ASSIGNMENT_SHORTLIST` (256) values
     /// nearest the anchor's, up to `k` pixels (the anchor first) that interact with no other
     /// pixel of the set. Their energies then separate, `c(p, v) = Σ_n w f(‖v − Vn‖²)` summed
     /// over the set, and the permutation of their values with the least sum
-    /// ([`min_cost_assignment`]) is kept if it lowers the energy by more than `k` margins.
+    /// (`min_cost_assignment`) is kept if it lowers the energy by more than `k` margins.
     /// Counts each move as one attempted (and maybe accepted) swap. Calls `after_colour` after
     /// each colour phase.
     pub fn run_assignment_pass(
