@@ -1119,7 +1119,7 @@ impl SwapOptimizer {
     /// pixels wide, coloured like a swap pass's, each slice makes `⌈n / k⌉` moves (`n` the
     /// tile's pixels; `k` clamped to `2..=`[`MAX_ASSIGNMENT`]). A move takes a random anchor
     /// pixel of the tile, then, nearest value first among the `ASSIGNMENT_SHORTLIST` (256) values
-    /// nearest the anchor's, up to `k` pixels (the anchor first) that interact with no other
+    /// nearest the anchor's, up to `k` pixels (ties by position in the tile) that interact with no other
     /// pixel of the set. Their energies then separate, `c(p, v) = Σ_n w f(‖v − Vn‖²)` summed
     /// over the set, and the permutation of their values with the least sum
     /// (`min_cost_assignment`) is kept if it lowers the energy by more than `k` margins.
