@@ -1118,10 +1118,11 @@ impl SwapOptimizer {
     /// An assignment pass ([module docs](self)): in tiles about [`ASSIGNMENT_TILE_TARGET`]
     /// pixels wide, coloured like a swap pass's, each slice makes `⌈n / k⌉` moves (`n` the
     /// tile's pixels; `k` clamped to `2..=`[`MAX_ASSIGNMENT`]). A move takes a random anchor
-    /// pixel of the tile, then, nearest value first among the `ASSIGNMENT_SHORTLIST` (256) values
-    /// nearest the anchor's, up to `k` pixels (ties by position in the tile) that interact with no other
-    /// pixel of the set. Their energies then separate, `c(p, v) = Σ_n w f(‖v − Vn‖²)` summed
-    /// over the set, and the permutation of their values with the least sum
+    /// pixel of the tile, then, nearest value first among the `ASSIGNMENT_SHORTLIST` (256)
+    /// values nearest the anchor's (ties by position in the tile), up to `k` pixels that
+    /// interact with no other pixel of the set. Their energies then separate,
+    /// `c(p, v) = Σ_n w f(‖v − Vn‖²)` summed over the set, and the permutation of their values
+    /// with the least sum
     /// (`min_cost_assignment`) is kept if it lowers the energy by more than `k` margins.
     /// Counts each move as one attempted (and maybe accepted) swap. Calls `after_colour` after
     /// each colour phase.
