@@ -894,6 +894,27 @@ struct Tile {
     id: u64,
 }
 
+impl Tile {
+    /// Pixel `i` of the tile (row by row), as `(x, y)` in a `width × height` slice.
+    #[inline(always)]
+    fn pixel(&self, i: u32, width: u32, height: u32) -> (u32, u32) {
+        (
+            (self.x0 + i % self.w) % width,
+            (self.y0 + i / self.w) % height,
+        )
+    }
+
+    /// Each tile pixel's index within its `width × height` slice, in [`Tile::pixel`]'s order.
+    fn slice_indices(&self, width: u32, height: u32) -> Vec<usize> {
+        (0..self.w * self.h)
+            .map(|i| {
+                let (x, y) = self.pixel(i, width, height);
+                y as usize * width as usize + x as usize
+            })
+            .collect()
+    }
+}
+
 /// A uniform index in `0..n` other than `i` (`n ≥ 2`), from one `u32` of `rng` (multiply-shift,
 /// bias below 2⁻¹⁶ for the tile sizes here). Shared with the filter-adapted optimiser, whose
 /// partners are drawn the same way.
@@ -1271,19 +1292,8 @@ impl SwapKernel {
         let mut scratch = Scratch::new(self);
         let count = ((plan.fraction * f64::from(n)).round() as usize).min(n as usize);
         let mut order: Vec<u32> = (0..n).collect();
-        let pixel = |i: u32| {
-            (
-                (tile.x0 + i % tile.w) % self.width,
-                (tile.y0 + i / tile.w) % self.height,
-            )
-        };
-        // Each tile pixel's index within its slice.
-        let in_slice: Vec<usize> = (0..n)
-            .map(|i| {
-                let (x, y) = pixel(i);
-                y as usize * self.width as usize + x as usize
-            })
-            .collect();
+        let pixel = |i: u32| tile.pixel(i, self.width, self.height);
+        let in_slice = tile.slice_indices(self.width, self.height);
         for z in 0..self.depth {
             let base = z as usize * self.slice_pixels();
             order.shuffle(&mut rng);
@@ -1440,18 +1450,8 @@ impl SwapKernel {
         let k_max = plan.assignment as usize;
         let mut rng = keyed_rng(plan.seed, stream::TILE, plan.pass, tile.id);
         let mut scratch = Scratch::new(self);
-        let pixel = |i: u32| {
-            (
-                (tile.x0 + i % tile.w) % self.width,
-                (tile.y0 + i / tile.w) % self.height,
-            )
-        };
-        let in_slice: Vec<usize> = (0..n)
-            .map(|i| {
-                let (x, y) = pixel(i);
-                y as usize * self.width as usize + x as usize
-            })
-            .collect();
+        let pixel = |i: u32| tile.pixel(i, self.width, self.height);
+        let in_slice = tile.slice_indices(self.width, self.height);
         let mut order: Vec<u32> = (0..n).collect();
         let mut near: Vec<(u32, u32)> = Vec::with_capacity(n as usize);
         let mut set: Vec<u32> = Vec::with_capacity(k_max);
