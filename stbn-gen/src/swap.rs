@@ -1407,20 +1407,20 @@ fn min_cost_assignment(cost: &[f64], k: usize, out: &mut [usize]) {
 }
 
 impl SwapKernel {
-    /// `c(p, v) = Σ_n w f(‖v − Vn‖²)` over the neighbours `n` of pixel `at` (index `centre`):
-    /// the energy the pixel would have holding `value`.
+    /// `c(p, v) = Σ_n w f(‖v − Vn‖²)`, the energy pixel `p` would have holding `value`, from the
+    /// values `neighbours` of its taps (in [`SwapKernel::for_each_neighbour`]'s order).
     #[inline(always)]
     fn pixel_cost<const D: usize>(
         &self,
-        shared: &Shared,
-        at: (u32, u32, u32),
-        centre: usize,
+        neighbours: &[[f32; D]],
         value: &[f32; D],
         scratch: &mut Scratch,
     ) -> f64 {
         let taps = scratch.taps;
         let padded = taps.div_ceil(FACTOR_LANES) * FACTOR_LANES;
-        self.gather::<D>(shared, at, centre, value, &mut scratch.after[..taps]);
+        for (d, n) in scratch.after[..taps].iter_mut().zip(neighbours) {
+            *d = squared_distance(value, n);
+        }
         scratch.after[taps..padded].fill(0.0);
         value_factors::<D>(
             &scratch.after[..padded],
@@ -1458,6 +1458,7 @@ impl SwapKernel {
         let mut cost = vec![0.0f64; k_max * k_max];
         let mut perm = vec![0usize; k_max];
         let mut tile_values: Vec<[f32; D]> = Vec::with_capacity(n as usize);
+        let mut neighbours = vec![[0.0f32; D]; scratch.taps];
         let shortlist = ASSIGNMENT_SHORTLIST.min(n as usize);
         let moves = (n as usize).div_ceil(k_max);
         for z in 0..self.depth {
@@ -1498,14 +1499,16 @@ impl SwapKernel {
                 if k < 2 {
                     continue;
                 }
+                // Each pixel's neighbour values are read once and costed against every value.
                 for (r, &i) in set.iter().enumerate() {
                     let (x, y) = pixel(i);
                     let centre = base + in_slice[i as usize];
+                    self.for_each_neighbour((x, y, z), centre, |t, n| {
+                        neighbours[t] = shared.value::<D>(n);
+                    });
                     for (c, &j) in set.iter().enumerate() {
                         cost[r * k + c] = self.pixel_cost::<D>(
-                            shared,
-                            (x, y, z),
-                            centre,
+                            &neighbours,
                             &tile_values[j as usize],
                             &mut scratch,
                         );

@@ -69,7 +69,7 @@ pub struct VectorSpec {
     /// `0..=`[`VectorSpec::MAX_ASSIGNMENT_PASSES`]: in each, sets of
     /// [`crate::swap::ASSIGNMENT_SET`] pixels with similar values that do not interact get the
     /// best permutation of their values ([`crate::swap::SwapOptimizer::run_assignment_pass`]).
-    /// One costs about as much as 6–10 swap passes; 8 after the default's 128 swap passes get
+    /// One costs about as much as 5–10 swap passes; 8 after the default's 128 swap passes get
     /// within 0.5% of the filtered error of 1024 swap passes (BENCHMARKS.md, "Assignment
     /// passes").
     pub assignment_passes: u32,
