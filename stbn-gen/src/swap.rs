@@ -1133,7 +1133,7 @@ impl SwapOptimizer {
     /// Calls `after_colour` after each of the four colour phases. Returns the totals after the
     /// pass.
     pub fn run_pass(&mut self, fraction: f64, after_colour: &mut dyn FnMut(&Self)) -> TracePoint {
-        self.run_pass_with(fraction, 0, after_colour)
+        self.run_pass_with(fraction, 0, self.tile_target, after_colour)
     }
 
     /// An assignment pass ([module docs](self)): in tiles about [`ASSIGNMENT_TILE_TARGET`]
@@ -1143,8 +1143,8 @@ impl SwapOptimizer {
     /// values nearest the anchor's (ties by position in the tile), up to `k` pixels that
     /// interact with no other pixel of the set. Their energies then separate,
     /// `c(p, v) = Σ_n w f(‖v − Vn‖²)` summed over the set, and the permutation of their values
-    /// with the least sum
-    /// (`min_cost_assignment`) is kept if it lowers the energy by more than `k` margins.
+    /// with the least sum (`min_cost_assignment`) is kept if it lowers the energy by more than
+    /// `k` margins.
     /// Counts each move as one attempted (and maybe accepted) swap. Calls `after_colour` after
     /// each colour phase.
     pub fn run_assignment_pass(
@@ -1152,17 +1152,17 @@ impl SwapOptimizer {
         k: u32,
         after_colour: &mut dyn FnMut(&Self),
     ) -> TracePoint {
-        let swap_tiles = self.tile_target;
-        self.tile_target = ASSIGNMENT_TILE_TARGET;
-        let point = self.run_pass_with(1.0, k.clamp(2, MAX_ASSIGNMENT), after_colour);
-        self.tile_target = swap_tiles;
-        point
+        let k = k.clamp(2, MAX_ASSIGNMENT);
+        self.run_pass_with(1.0, k, ASSIGNMENT_TILE_TARGET, after_colour)
     }
 
+    /// One pass in tiles about `tile_target` pixels wide: swaps (`assignment` 0) or an
+    /// assignment pass over sets of up to `assignment` pixels.
     fn run_pass_with(
         &mut self,
         fraction: f64,
         assignment: u32,
+        tile_target: u32,
         after_colour: &mut dyn FnMut(&Self),
     ) -> TracePoint {
         let (w, h) = (self.kernel.width, self.kernel.height);
@@ -1172,8 +1172,8 @@ impl SwapOptimizer {
         let mut grid_rng = keyed_rng(self.seed, stream::GRID, pass, 0);
         let (ox, oy) = (grid_rng.random_range(0..w), grid_rng.random_range(0..h));
         let (nx, ny) = (
-            tiles_along(w, rx, self.tile_target),
-            tiles_along(h, ry, self.tile_target),
+            tiles_along(w, rx, tile_target),
+            tiles_along(h, ry, tile_target),
         );
         let bound =
             |i: u32, n: u32, size: u32| (u64::from(i) * u64::from(size) / u64::from(n)) as u32;
@@ -1459,6 +1459,8 @@ impl SwapKernel {
         let mut perm = vec![0usize; k_max];
         let mut tile_values: Vec<[f32; D]> = Vec::with_capacity(n as usize);
         let mut neighbours = vec![[0.0f32; D]; scratch.taps];
+        // The set's values before a kept permutation.
+        let mut old: Vec<[f32; D]> = Vec::with_capacity(k_max);
         let shortlist = ASSIGNMENT_SHORTLIST.min(n as usize);
         let moves = (n as usize).div_ceil(k_max);
         for z in 0..self.depth {
@@ -1524,7 +1526,8 @@ impl SwapKernel {
                 }
                 result.accepted += 1;
                 result.delta += delta;
-                let old: Vec<[f32; D]> = set.iter().map(|&i| tile_values[i as usize]).collect();
+                old.clear();
+                old.extend(set.iter().map(|&i| tile_values[i as usize]));
                 for (r, &i) in set.iter().enumerate() {
                     if perm[r] == r {
                         continue;

@@ -457,35 +457,27 @@ pub fn generate_vector_with_progress(
             energy: optimizer.energy(),
         }],
     };
-    let passes = spec.swaps_per_pixel.ceil() as u64;
-    let all_passes = passes + u64::from(spec.assignment_passes);
+    // ⌈swaps_per_pixel⌉ swap passes (the last one partial), then the assignment passes.
+    let swap_passes = spec.swaps_per_pixel.ceil() as u64;
+    let passes = swap_passes + u64::from(spec.assignment_passes);
     for pass in 0..passes {
-        let fraction = (spec.swaps_per_pixel - pass as f64).min(1.0);
         let mut quarter = 0;
-        let point = optimizer.run_pass(fraction, &mut |o| {
+        let mut report = |o: &SwapOptimizer| {
             quarter += 1;
             progress(VectorProgress {
                 passes_done: pass as f64 + 0.25 * f64::from(quarter),
-                passes: all_passes,
+                passes,
                 swaps_attempted: o.swaps_attempted(),
                 swaps_accepted: o.swaps_accepted(),
                 energy: o.energy(),
             })
-        });
-        trace.points.push(point);
-    }
-    for pass in 0..spec.assignment_passes {
-        let mut quarter = 0;
-        let point = optimizer.run_assignment_pass(crate::swap::ASSIGNMENT_SET, &mut |o| {
-            quarter += 1;
-            progress(VectorProgress {
-                passes_done: (passes + u64::from(pass)) as f64 + 0.25 * f64::from(quarter),
-                passes: all_passes,
-                swaps_attempted: o.swaps_attempted(),
-                swaps_accepted: o.swaps_accepted(),
-                energy: o.energy(),
-            })
-        });
+        };
+        let point = if pass < swap_passes {
+            let fraction = (spec.swaps_per_pixel - pass as f64).min(1.0);
+            optimizer.run_pass(fraction, &mut report)
+        } else {
+            optimizer.run_assignment_pass(crate::swap::ASSIGNMENT_SET, &mut report)
+        };
         trace.points.push(point);
     }
 
