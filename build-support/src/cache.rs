@@ -371,7 +371,7 @@ mod tests {
         }));
         keys.push(vector(SampleSpace::UnitVec3, true, &|s| s.seed = 9));
         keys.push(vector(SampleSpace::UnitVec3, true, &|s| {
-            s.assignment_passes = 8
+            s.assignment_passes = 0
         }));
         keys.push(vector(SampleSpace::UnitVec3, true, &|s| {
             s.assignment_passes = 9

@@ -37,7 +37,7 @@
 //!             image: "sky.hdr",       // image kinds only; relative to the manifest
 //!             sigma_value: 1.0,       // optional, σs of the value term
 //!             swaps_per_pixel: 8.0,   // optional, the optimiser's budget
-//!             assignment_passes: 8,   // optional, exact k-pixel passes after the swaps (default 0)
+//!             assignment_passes: 12,  // optional, exact k-pixel passes after the swaps
 //!             octahedral: true,       // optional, 3D unit kinds: store 2 octahedral channels (default)
 //!             encoding: Unorm16,
 //!         ),
@@ -266,7 +266,7 @@ pub struct MaskEntry {
     /// Vector kinds: the swap optimiser's budget in attempted swaps per pixel (default
     /// [`VectorSpec`]'s).
     pub swaps_per_pixel: f64,
-    /// Vector kinds: assignment passes after the swaps (default 0; see
+    /// Vector kinds: assignment passes after the swaps (default [`VectorSpec`]'s; see
     /// [`VectorSpec::assignment_passes`]).
     pub assignment_passes: u32,
     /// Image kinds: the image the values are importance-sampled from.
@@ -1095,11 +1095,16 @@ mod tests {
     fn assignment_passes_reach_the_vector_spec_and_only_vector_kinds() {
         let vec2 = manifest("").replace("kind: Scalar", "kind: Vec2");
         let entry = Manifest::parse(&vec2, "m.ron").unwrap().masks()[0].clone();
-        assert_eq!(entry.vector_spec().unwrap().assignment_passes, 0);
-        let text =
-            manifest("            assignment_passes: 8,\n").replace("kind: Scalar", "kind: Vec2");
-        let entry = Manifest::parse(&text, "m.ron").unwrap().masks()[0].clone();
-        assert_eq!(entry.vector_spec().unwrap().assignment_passes, 8);
+        assert_eq!(
+            entry.vector_spec().unwrap().assignment_passes,
+            VectorSpec::DEFAULT_ASSIGNMENT_PASSES
+        );
+        for passes in [0, 8] {
+            let text = manifest(&format!("            assignment_passes: {passes},\n"))
+                .replace("kind: Scalar", "kind: Vec2");
+            let entry = Manifest::parse(&text, "m.ron").unwrap().masks()[0].clone();
+            assert_eq!(entry.vector_spec().unwrap().assignment_passes, passes);
+        }
         let text = manifest("            assignment_passes: 1001,\n")
             .replace("kind: Scalar", "kind: Vec2");
         let e = Manifest::parse(&text, "m.ron").unwrap_err();

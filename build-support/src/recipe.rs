@@ -216,7 +216,7 @@ impl Recipe {
                 format!(
                     "method=swap\nspace={}\nwidth={}\nheight={}\ndepth={}\nseed={}\n\
                  sigma_image={:016x}\nsigma_value={:016x}\nswaps_per_pixel={:016x}\n\
-                 kernel_tolerance={:016x}\nlayout={:?}/{:?}/{}\nimage={}\n",
+                 assignment_passes={}\nkernel_tolerance={:016x}\nlayout={:?}/{:?}/{}\nimage={}\n",
                     spec.space.name(),
                     spec.width,
                     spec.height,
@@ -225,25 +225,16 @@ impl Recipe {
                     spec.sigma_image.to_bits(),
                     spec.sigma_value.to_bits(),
                     spec.swaps_per_pixel.to_bits(),
+                    spec.assignment_passes,
                     spec.kernel_tolerance.to_bits(),
                     layout.space,
                     layout.value_map,
                     layout.channels,
                     image_hash.map_or_else(|| "none".to_owned(), |h| h.to_hex().to_string()),
-                ) + &assignment_line(spec.assignment_passes)
+                )
             }
             Recipe::FilterAdapted(recipe) => filter_adapted(recipe),
         }
-    }
-}
-
-/// The line that adds `assignment_passes` to a vector recipe's description; none for 0, so the
-/// masks of manifests that do not ask for the passes keep the keys they had before the field.
-fn assignment_line(passes: u32) -> String {
-    if passes == 0 {
-        String::new()
-    } else {
-        format!("assignment_passes={passes}\n")
     }
 }
 

@@ -117,7 +117,8 @@ fn ambient_occlusion() {
     };
     let scene = AmbientOcclusion::new(IMAGE, IMAGE, Heightfield::town(64, 1), params);
     let ratios = ratios(&scene, NoiseKind::StbnVectors, NoiseKind::WhiteVectors);
-    // Measured: 0.703, 0.666, 0.697, 0.622 (GENERATOR_VERSION 3; version 1, with 16 swaps per
-    // pixel and uniform partners, measured 0.752, 0.725, 0.666, 0.684).
-    assert_at_most(scene.name(), &ratios, [0.71, 0.67, 0.70, 0.63]);
+    // Measured: 0.704, 0.676, 0.684, 0.637 (GENERATOR_VERSION 4: 64 swaps and 12 assignment
+    // passes per pixel; version 3, 128 swaps, measured 0.703, 0.666, 0.697, 0.622; version 1,
+    // with 16 swaps per pixel and uniform partners, 0.752, 0.725, 0.666, 0.684).
+    assert_at_most(scene.name(), &ratios, [0.71, 0.68, 0.69, 0.64]);
 }

@@ -1,21 +1,22 @@
 //! Vector generator speed, and its energy against the swap budget.
 //!
 //! `cargo bench -p stbn-gen --bench vector` times Vec2 and UnitVec3 at 32×32×16 with the default
-//! budget. `STBN_BENCH_LARGE=1 cargo bench -p stbn-gen --bench vector -- vector_128` adds the
+//! budget (swaps, then assignment passes). `STBN_BENCH_LARGE=1 cargo bench -p stbn-gen --bench vector -- vector_128` adds the
 //! issue's 128×128×64 (tens of seconds per sample).
 //!
 //! `STBN_VECTOR_CURVE=WxHxD cargo bench -p stbn-gen --bench vector` instead prints, for Vec2 and
-//! UnitVec3 at that size, the energy per pixel after 0.5, 1, 2, 4, … 256 swaps per pixel (from one
-//! long run's trace; 0.5 from its own run), with the time of the whole run and the low-band power
+//! UnitVec3 at that size, the energy per pixel after 0.5, 1, 2, 4, … 256 swaps per pixel and no
+//! assignment passes (from one long run's trace; 0.5 from its own run), with the time of the whole run and the low-band power
 //! of each component at the end. `STBN_VECTOR_CURVE_MAX` sets the longest budget (default 256).
 //!
 //! `STBN_VECTOR_QUALITY=WxHxD cargo bench -p stbn-gen --bench vector` instead generates Vec2 and
-//! UnitVec3 at that size once per budget of `STBN_VECTOR_QUALITY_BUDGETS` (default `16,128,1024`
+//! UnitVec3 at that size once per budget of `STBN_VECTOR_QUALITY_BUDGETS` (default `16,64,1024`
 //! swaps per pixel; seed `STBN_VECTOR_SEED`, default 1) and prints, per run, the time, the energy
 //! and what a renderer sees: the low-band power of component 0, FAST's filtered error with random
 //! half-space thresholds at the last frame, and for Vec2 the 2D integration errors (Monte Carlo
 //! RMSE after `depth/2` frames, EMA RMSE at the last frame) of the disc, Gaussian and diagonal
-//! step. `STBN_VECTOR_ASSIGNMENT=N` adds `N` assignment passes after each budget's swaps.
+//! step. `STBN_VECTOR_ASSIGNMENT=N` runs `N` assignment passes after each budget's swaps (default
+//! [`VectorSpec::DEFAULT_ASSIGNMENT_PASSES`]; 0 for swaps alone).
 
 use std::time::Instant;
 
@@ -110,12 +111,15 @@ fn quality(_: &mut Criterion) {
     let dims: Vec<u32> = size.split('x').map(|s| s.parse().unwrap()).collect();
     let (w, h, d) = (dims[0], dims[1], dims[2]);
     let budgets: Vec<f64> = std::env::var("STBN_VECTOR_QUALITY_BUDGETS")
-        .unwrap_or_else(|_| "16,128,1024".to_owned())
+        .unwrap_or_else(|_| "16,64,1024".to_owned())
         .split(',')
         .map(|s| s.parse().unwrap())
         .collect();
     let seed: u64 = std::env::var("STBN_VECTOR_SEED").map_or(1, |s| s.parse().unwrap());
-    let assignment: u32 = std::env::var("STBN_VECTOR_ASSIGNMENT").map_or(0, |s| s.parse().unwrap());
+    let assignment: u32 = std::env::var("STBN_VECTOR_ASSIGNMENT")
+        .map_or(VectorSpec::DEFAULT_ASSIGNMENT_PASSES, |s| {
+            s.parse().unwrap()
+        });
     for (space, signed) in spaces() {
         for &budget in &budgets {
             let spec = VectorSpec::new(w, h, d, seed, space.clone())
@@ -171,7 +175,7 @@ fn curve(_: &mut Criterion) {
         .map(|s| s.parse().unwrap())
         .unwrap_or(256.0);
     for (space, signed) in spaces() {
-        let spec = VectorSpec::new(w, h, d, 1, space.clone());
+        let spec = VectorSpec::new(w, h, d, 1, space.clone()).with_assignment_passes(0);
         let pixels = spec.pixels() as f64;
         let half = generate_vector(&spec.clone().with_swaps_per_pixel(0.5))
             .unwrap()

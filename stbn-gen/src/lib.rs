@@ -50,8 +50,9 @@ pub use volume::Volume;
 /// tie-break, kernel, arithmetic or RNG change). Caches of generated masks include it in their
 /// keys; tests pin the output of reference specs to it. Version 2: the vector energy's value
 /// factor is computed in single precision; 3: vector swap partners are the nearest in value of a
-/// few candidates, in tiles of 16 pixels.
-pub const GENERATOR_VERSION: u32 = 3;
+/// few candidates, in tiles of 16 pixels; 4: the default vector budget is 64 swap passes and 16
+/// assignment passes (was 128 swap passes).
+pub const GENERATOR_VERSION: u32 = 4;
 
 /// Generates the scalar mask `spec` describes.
 ///

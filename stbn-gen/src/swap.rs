@@ -1346,6 +1346,9 @@ pub const ASSIGNMENT_TILE_TARGET: u32 = 32;
 /// Values nearest the anchor's that a set is chosen from, at most.
 const ASSIGNMENT_SHORTLIST: usize = 256;
 
+/// Values nearest the anchor's sorted before the rest of the shortlist (most sets fill from them).
+const ASSIGNMENT_FIRST_LOOK: usize = 32;
+
 /// The permutation `out` (row `i` gets column `out[i]`) of least total `cost` (`k × k`, row
 /// major): the Hungarian method with potentials, O(k³). Deterministic.
 fn min_cost_assignment(cost: &[f64], k: usize, out: &mut [usize]) {
@@ -1483,19 +1486,32 @@ impl SwapKernel {
                     near.select_nth_unstable(shortlist - 1);
                     near.truncate(shortlist);
                 }
-                near.sort_unstable();
+                // Most sets fill from the first few nearest, so those are sorted first and the
+                // rest only when the set is still short: the same order as sorting them all.
+                let first = ASSIGNMENT_FIRST_LOOK.min(near.len());
+                if first < near.len() {
+                    near.select_nth_unstable(first - 1);
+                }
+                near[..first].sort_unstable();
                 set.clear();
-                for &(_, j) in &near {
-                    let pj = pixel(j);
-                    if set
-                        .iter()
-                        .all(|&a| a != j && self.spatial_tap(pixel(a), pj).is_none())
-                    {
-                        set.push(j);
-                        if set.len() == k_max {
-                            break;
+                let take = |candidates: &[(u32, u32)], set: &mut Vec<u32>| {
+                    for &(_, j) in candidates {
+                        let pj = pixel(j);
+                        if set
+                            .iter()
+                            .all(|&a| a != j && self.spatial_tap(pixel(a), pj).is_none())
+                        {
+                            set.push(j);
+                            if set.len() == k_max {
+                                break;
+                            }
                         }
                     }
+                };
+                take(&near[..first], &mut set);
+                if set.len() < k_max && first < near.len() {
+                    near[first..].sort_unstable();
+                    take(&near[first..], &mut set);
                 }
                 let k = set.len();
                 if k < 2 {
@@ -1680,7 +1696,9 @@ mod tests {
             SampleSpace::Vec { dims: 4 },
         ];
         for space in spaces {
-            let spec = VectorSpec::new(16, 12, 6, 5, space.clone()).with_swaps_per_pixel(0.0);
+            let spec = VectorSpec::new(16, 12, 6, 5, space.clone())
+                .with_swaps_per_pixel(0.0)
+                .with_assignment_passes(0);
             let start = crate::generate_vector(&spec).unwrap().0.values().to_vec();
             // One tile over the whole slice (interior pixels and wrapping ones): no other tile
             // runs beside it.
@@ -1826,11 +1844,16 @@ mod tests {
         use crate::SampleSpace;
         for (w, h, d) in [(20, 18, 5), (9, 10, 3), (3, 2, 2), (1, 7, 4)] {
             let spec = VectorSpec::new(w, h, d, 3, SampleSpace::Vec { dims: 2 });
-            let start = crate::generate_vector(&spec.clone().with_swaps_per_pixel(0.0))
-                .unwrap()
-                .0
-                .values()
-                .to_vec();
+            let start = crate::generate_vector(
+                &spec
+                    .clone()
+                    .with_swaps_per_pixel(0.0)
+                    .with_assignment_passes(0),
+            )
+            .unwrap()
+            .0
+            .values()
+            .to_vec();
             let o = SwapOptimizer::new(&spec, start);
             let (k, shared) = (&o.kernel, o.shared());
             let taps = k.spatial.len() + k.temporal.len();

@@ -62,16 +62,15 @@ pub struct VectorSpec {
     pub sigma_value: f64,
     /// Optimisation budget: swaps proposed per pixel, finite, in
     /// `0..=`[`VectorSpec::MAX_SWAPS_PER_PIXEL`]. Each whole unit is one pass in which every pixel
-    /// proposes one swap; a fractional part runs a partial last pass. 0 keeps the random
-    /// arrangement of the stratified sets.
+    /// proposes one swap; a fractional part runs a partial last pass. 0 swaps and 0 assignment
+    /// passes keep the initial arrangement of the stratified sets.
     pub swaps_per_pixel: f64,
     /// Assignment passes run after the swap passes, in
     /// `0..=`[`VectorSpec::MAX_ASSIGNMENT_PASSES`]: in each, sets of
     /// [`crate::swap::ASSIGNMENT_SET`] pixels with similar values that do not interact get the
     /// best permutation of their values ([`crate::swap::SwapOptimizer::run_assignment_pass`]).
-    /// One costs about as much as 5–10 swap passes; 8 after the default's 128 swap passes get
-    /// within 0.5% of the filtered error of 1024 swap passes (BENCHMARKS.md, "Assignment
-    /// passes").
+    /// One costs about as much as 5–15 swap passes, and late in a run gains more energy than
+    /// they do; [`VectorSpec::DEFAULT_ASSIGNMENT_PASSES`] by default. 0 runs swaps only.
     pub assignment_passes: u32,
     /// Pair weights `exp(−‖p−q‖²/σi²)` below this are dropped, in `(0, 1)`. The default 5·10⁻³
     /// keeps offsets up to `σi √ln 200 = 2.3 σi` (4.4 pixels at σi 1.9: 56 same-slice and 8
@@ -86,11 +85,16 @@ impl VectorSpec {
     pub const DEFAULT_SIGMA_IMAGE: f64 = 1.9;
     /// σs the paper uses.
     pub const DEFAULT_SIGMA_VALUE: f64 = 1.0;
-    /// Default budget in swaps proposed per pixel: Vec2 and UnitVec3 at 128×128×64 in 28–34 s on
-    /// the two cores here, inside the 60 s target. An 8× longer run still lowers the energy by
-    /// 0.1% (Vec2) / 0.4% (UnitVec3) and FAST's filtered error by 2.2% / 2.4%; BENCHMARKS.md has
-    /// the curve, the times and the quality per budget.
-    pub const DEFAULT_SWAPS_PER_PIXEL: f64 = 128.0;
+    /// Default budget in swaps proposed per pixel, run before
+    /// [`VectorSpec::DEFAULT_ASSIGNMENT_PASSES`] assignment passes. Together they make Vec2 and
+    /// UnitVec3 at 128×128×64 in MEASURE on the two cores here, inside the 60 s target;
+    /// BENCHMARKS.md ("Vector masks") has the curve, the times and the quality per budget, and
+    /// what a much longer run still gains.
+    pub const DEFAULT_SWAPS_PER_PIXEL: f64 = 64.0;
+    /// Default number of assignment passes after the swaps. After 64 swap passes, assignment
+    /// passes lower the energy and the filtered error more than the same time spent on swaps
+    /// (BENCHMARKS.md, "Assignment passes").
+    pub const DEFAULT_ASSIGNMENT_PASSES: u32 = 12;
     /// Default kernel truncation.
     pub const DEFAULT_KERNEL_TOLERANCE: f64 = 5e-3;
     /// Largest budget accepted.
@@ -115,7 +119,7 @@ impl VectorSpec {
             sigma_image: Self::DEFAULT_SIGMA_IMAGE,
             sigma_value: Self::DEFAULT_SIGMA_VALUE,
             swaps_per_pixel: Self::DEFAULT_SWAPS_PER_PIXEL,
-            assignment_passes: 0,
+            assignment_passes: Self::DEFAULT_ASSIGNMENT_PASSES,
             kernel_tolerance: Self::DEFAULT_KERNEL_TOLERANCE,
             initial_arrangement: InitialArrangement::ScalarStbn,
         }

@@ -53,7 +53,12 @@ fn every_space() -> Vec<SampleSpace> {
 fn optimisation_keeps_each_slice_multiset_and_lowers_the_energy() {
     for space in every_space() {
         let spec = VectorSpec::new(12, 10, 4, 21, space.clone());
-        let (before, start) = generate_vector(&spec.clone().with_swaps_per_pixel(0.0)).unwrap();
+        // No optimisation at all, then 3 swap passes and the default assignment passes.
+        let unoptimised = spec
+            .clone()
+            .with_swaps_per_pixel(0.0)
+            .with_assignment_passes(0);
+        let (before, start) = generate_vector(&unoptimised).unwrap();
         let (after, trace) = generate_vector(&spec.clone().with_swaps_per_pixel(3.0)).unwrap();
         assert_eq!(
             slice_multisets(&before),
@@ -68,7 +73,10 @@ fn optimisation_keeps_each_slice_multiset_and_lowers_the_energy() {
             space.name()
         );
         assert_eq!(start.points.len(), 1);
-        assert_eq!(trace.points.len(), 4);
+        assert_eq!(
+            trace.points.len(),
+            1 + 3 + VectorSpec::DEFAULT_ASSIGNMENT_PASSES as usize
+        );
         assert_eq!(trace.points[0], start.points[0]);
         for pair in trace.points.windows(2) {
             assert!(
@@ -168,7 +176,9 @@ fn every_accepted_swap_lowers_the_exact_energy() {
 
 #[test]
 fn running_energy_matches_a_recomputation_after_passes() {
-    let spec = VectorSpec::new(24, 16, 6, 3, SampleSpace::UnitVec2).with_swaps_per_pixel(6.5);
+    let spec = VectorSpec::new(24, 16, 6, 3, SampleSpace::UnitVec2)
+        .with_swaps_per_pixel(6.5)
+        .with_assignment_passes(0);
     let (volume, trace) = generate_vector(&spec).unwrap();
     let exact = stbn_gen::swap::SwapKernel::new(&spec).energy(volume.values());
     let running = trace.points.last().unwrap().energy;
@@ -281,7 +291,11 @@ fn masks_are_blue_in_space_and_time() {
         initial_arrangement: InitialArrangement::Random,
         ..VectorSpec::new(32, 32, 16, 8, SampleSpace::Vec { dims: 1 }).with_swaps_per_pixel(16.0)
     };
-    let (start, _) = generate_vector(&spec.clone().with_swaps_per_pixel(0.0)).unwrap();
+    let unoptimised = spec
+        .clone()
+        .with_swaps_per_pixel(0.0)
+        .with_assignment_passes(0);
+    let (start, _) = generate_vector(&unoptimised).unwrap();
     let (volume, _) = generate_vector(&spec).unwrap();
     let (s0, t0) = low_bands(&start, 0, false);
     let (s, t) = low_bands(&volume, 0, false);
@@ -338,7 +352,13 @@ fn extreme_shapes_generate_and_keep_their_multisets() {
                     initial_arrangement: arrangement,
                     ..VectorSpec::new(w, h, d, 4, space.clone()).with_swaps_per_pixel(2.0)
                 };
-                let (before, _) = generate_vector(&spec.clone().with_swaps_per_pixel(0.0)).unwrap();
+                let (before, _) = generate_vector(
+                    &spec
+                        .clone()
+                        .with_swaps_per_pixel(0.0)
+                        .with_assignment_passes(0),
+                )
+                .unwrap();
                 let (after, trace) = generate_vector(&spec).unwrap();
                 assert_eq!((after.width(), after.height(), after.depth()), (w, h, d));
                 assert_eq!(after.values().len(), (w * h * d) as usize * space.dims());
@@ -369,12 +389,20 @@ fn tiny_and_huge_value_sigma_terminate() {
             sigma_value,
             ..VectorSpec::new(16, 12, 4, 2, SampleSpace::Vec { dims: 3 }).with_swaps_per_pixel(3.0)
         };
-        let (before, _) = generate_vector(&spec.clone().with_swaps_per_pixel(0.0)).unwrap();
+        let (before, _) = generate_vector(
+            &spec
+                .clone()
+                .with_swaps_per_pixel(0.0)
+                .with_assignment_passes(0),
+        )
+        .unwrap();
         let (after, trace) = generate_vector(&spec).unwrap();
         assert_eq!(slice_multisets(&before), slice_multisets(&after));
+        // 3 swap passes, then the default assignment passes.
+        assert_eq!(trace.points[3].swaps_attempted, 3 * 16 * 12 * 4);
         assert_eq!(
-            trace.points.last().unwrap().swaps_attempted,
-            3 * 16 * 12 * 4
+            trace.points.len(),
+            4 + VectorSpec::DEFAULT_ASSIGNMENT_PASSES as usize
         );
         for pair in trace.points.windows(2) {
             assert!(pair[1].energy <= pair[0].energy);
@@ -505,9 +533,10 @@ fn value_digest(volume: &VectorVolume) -> u64 {
 fn vector_output_is_pinned_to_the_generator_version() {
     // If this fails, the vector generator's output changed: bump `GENERATOR_VERSION` (so caches
     // regenerate) and record the new digests here.
-    let pinned: [(u32, [u64; 2]); 2] = [
+    let pinned: [(u32, [u64; 2]); 3] = [
         (2, [0xe771_d128_545c_0a6e, 0x1e35_58a8_091d_8515]),
         (3, [0xd8ff_adde_347a_3f4a, 0x5f23_3700_e909_b65d]),
+        (4, [0x0a80_1d94_e495_758e, 0x4eb2_1f0c_9762_b331]),
     ];
     let digests = [SampleSpace::Vec { dims: 2 }, SampleSpace::UnitVec3].map(|space| {
         let spec = VectorSpec::new(16, 16, 8, 2026, space).with_swaps_per_pixel(4.0);
@@ -525,7 +554,9 @@ fn partners_nearest_in_value_beat_uniform_partners() {
     // The optimiser's proposal rule against uniform partners, from the same start, for the same
     // number of passes: the rule must end at a lower energy.
     for space in [SampleSpace::Vec { dims: 2 }, SampleSpace::UnitVec3] {
-        let spec = VectorSpec::new(32, 32, 16, 4, space.clone()).with_swaps_per_pixel(0.0);
+        let spec = VectorSpec::new(32, 32, 16, 4, space.clone())
+            .with_swaps_per_pixel(0.0)
+            .with_assignment_passes(0);
         let start = generate_vector(&spec).unwrap().0.values().to_vec();
         let run = |optimizer: SwapOptimizer| {
             let mut optimizer = optimizer;

@@ -22,6 +22,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use clap::ValueEnum;
+use stbn_gen::VectorSpec;
 
 use crate::Result;
 use chart::Chart;
@@ -100,6 +101,11 @@ pub struct Plan {
     pub budgets: Vec<f64>,
     /// Budget of the long run whose per-pass trace gives the curve and the final energy.
     pub longest_budget: u32,
+    /// Swaps per pixel before the assignment passes of `assignment_passes`.
+    pub assignment_swaps: f64,
+    /// Assignment passes after `assignment_swaps` swaps per pixel, each run on its own, in
+    /// increasing order; the last run's per-pass trace continues the curve.
+    pub assignment_passes: Vec<u32>,
     /// Scalar mask of the encoding knob.
     pub encoding_scalar: (u32, u32, u32),
     /// Vector masks of the encoding and compression knobs.
@@ -132,6 +138,8 @@ impl Plan {
             swap_size: (64, 64, 32),
             budgets: vec![0.0, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 32.0, 64.0, 128.0],
             longest_budget: 1024,
+            assignment_swaps: VectorSpec::DEFAULT_SWAPS_PER_PIXEL,
+            assignment_passes: vec![VectorSpec::DEFAULT_ASSIGNMENT_PASSES, 64],
             encoding_scalar: (128, 128, 64),
             vector_size: (64, 64, 32),
             vector_budget: 16.0,
@@ -157,6 +165,8 @@ impl Plan {
             swap_size: (16, 16, 8),
             budgets: vec![0.0, 0.5, 1.0, 2.0, 4.0],
             longest_budget: 8,
+            assignment_swaps: 2.0,
+            assignment_passes: vec![1, 2],
             encoding_scalar: (32, 32, 16),
             vector_size: (16, 16, 8),
             vector_budget: 4.0,

@@ -47,9 +47,10 @@ pub fn threads(plan: &Plan) -> Result<Section> {
     let (one, t1) = in_pool(plan, 1, || stbn_gen::generate_vector(&vector))?;
     let (two, t2) = in_pool(plan, 2, || stbn_gen::generate_vector(&vector))?;
     let name = format!(
-        "Vec2 {}, {} swaps per pixel",
+        "Vec2 {}, {} swaps per pixel and {} assignment passes",
         size_name(plan.vector_size),
-        plan.vector_budget
+        vector.swaps_per_pixel,
+        vector.assignment_passes
     );
     rows(&mut table, &name, &t1, &t2, one == two);
     findings.push(verdict(&name, &t1, &t2, one == two));
@@ -133,9 +134,10 @@ pub fn scale(plan: &Plan) -> Result<Section> {
     let (volume, timing) = timed(1, 0.0, || stbn_gen::generate_vector(&spec));
     volume?;
     let name = format!(
-        "Vec2 {}, {} swaps per pixel",
+        "Vec2 {}, {} swaps per pixel and {} assignment passes",
         size_name((w, h, d)),
-        spec.swaps_per_pixel
+        spec.swaps_per_pixel,
+        spec.assignment_passes
     );
     push(
         &mut table,

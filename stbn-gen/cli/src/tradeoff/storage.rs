@@ -41,7 +41,8 @@ impl Mask {
     fn vector(plan: &Plan, space: SampleSpace) -> Result<Mask> {
         let (w, h, d) = plan.vector_size;
         let spec = VectorSpec::new(w, h, d, plan.seed, space.clone())
-            .with_swaps_per_pixel(plan.vector_budget);
+            .with_swaps_per_pixel(plan.vector_budget)
+            .with_assignment_passes(0);
         let (volume, _) = stbn_gen::generate_vector(&spec)?;
         Ok(Mask::Vector { space, volume })
     }
@@ -300,7 +301,7 @@ pub fn encoding(plan: &Plan) -> Result<Section> {
              and mean errors show. The \
              quality columns are measured on the decoded values (the first component mapped to \
              [0, 1] for vectors); the first row of each mask is the generated values. Vector \
-             masks: {} swaps per pixel, seed {}. \"MC RMSE 8 change\" compares the decoded \
+             masks: {} swaps per pixel and no assignment passes, seed {}. \"MC RMSE 8 change\" compares the decoded \
              mask's Monte Carlo RMSE after 8 samples with the generated one's.",
             plan.vector_budget, plan.seed
         ),
@@ -455,7 +456,7 @@ pub fn compression(plan: &Plan) -> Result<Section> {
              embedded statics pay at start-up; uncompressed masks need no decode at all and are \
              sampled in place, the None row is a plain copy), medians of at least 5 runs and \
              {decode_total} s; every decode is checked against the uncompressed payload. Vector masks: {} \
-             swaps per pixel, UnitVec3 octahedral.",
+             swaps per pixel, no assignment passes, UnitVec3 octahedral.",
             plan.vector_budget
         ),
         tables: vec![("compression".to_owned(), "Compression.".to_owned(), table)],

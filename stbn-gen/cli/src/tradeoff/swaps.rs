@@ -63,6 +63,7 @@ pub fn run(plan: &Plan) -> Result<Section> {
     let mut columns = vec![
         ("space", "space", false),
         ("swaps_per_pixel", "swaps per pixel", true),
+        ("assignment_passes", "assignment passes", true),
         ("seconds", "seconds", true),
         ("runs", "runs", true),
         ("energy", "energy", false),
@@ -80,6 +81,7 @@ pub fn run(plan: &Plan) -> Result<Section> {
     let mut trace_table = Table::new(&[
         ("space", "space", false),
         ("swaps_per_pixel", "swaps per pixel", true),
+        ("assignment_passes", "assignment passes", true),
         ("seconds_since_start", "seconds since start", true),
         ("energy_per_pixel", "energy per pixel", true),
         ("excess_over_final_percent", "above final, %", true),
@@ -94,9 +96,10 @@ pub fn run(plan: &Plan) -> Result<Section> {
     let mut findings = Vec::new();
     for (name, space) in spaces() {
         let signed = is_signed(&space);
-        // The long run, with the time at the end of every pass.
+        // The long run of swaps alone, with the time at the end of every pass.
         let spec = VectorSpec::new(w, h, d, plan.seed, space.clone())
-            .with_swaps_per_pixel(f64::from(plan.longest_budget));
+            .with_swaps_per_pixel(f64::from(plan.longest_budget))
+            .with_assignment_passes(0);
         let mut stamps = Vec::new();
         let start = Instant::now();
         let (made, peak) = with_peak_memory(|| {
@@ -129,8 +132,9 @@ pub fn run(plan: &Plan) -> Result<Section> {
             ..Series::default()
         };
         for &budget in &plan.budgets {
-            let spec =
-                VectorSpec::new(w, h, d, plan.seed, space.clone()).with_swaps_per_pixel(budget);
+            let spec = VectorSpec::new(w, h, d, plan.seed, space.clone())
+                .with_swaps_per_pixel(budget)
+                .with_assignment_passes(0);
             let (made, timing) = timed(plan.max_runs, plan.min_total, || generate_vector(&spec));
             let (volume, trace) = made?;
             if !timing.repeatable {
@@ -155,6 +159,7 @@ pub fn run(plan: &Plan) -> Result<Section> {
             let mut row = vec![
                 Cell::text(name),
                 Cell::sig(budget, 3),
+                Cell::int(0),
                 Cell::sig(seconds, 3),
                 Cell::int(timing.runs.len() as u64),
                 Cell::sig(end.energy, 12),
@@ -216,6 +221,7 @@ pub fn run(plan: &Plan) -> Result<Section> {
                 trace_table.push(vec![
                     Cell::text(name),
                     Cell::sig(p.budget, 3),
+                    Cell::int(0),
                     Cell::opt_sig(p.seconds, 3),
                     Cell::fixed(p.energy / pixels as f64, 5),
                     Cell::sig(100.0 * (p.energy / last - 1.0), 3),
@@ -231,13 +237,22 @@ pub fn run(plan: &Plan) -> Result<Section> {
             }
         }
         excess_series.push(excess);
+        findings.push(assignment_rows(
+            plan,
+            (name, &space),
+            last,
+            long_seconds,
+            &mut table,
+            &mut trace_table,
+        )?);
     }
     Ok(Section {
         knob: Knob::Swaps,
         title: "3. Vector swap budget (Vec2, UnitVec3)".to_owned(),
         method: format!(
             "`stbn_gen::generate_vector(&VectorSpec::new({w}, {h}, {d}, {}, space)\
-             .with_swaps_per_pixel(b))` for each budget b, other fields at their defaults \
+             .with_swaps_per_pixel(b).with_assignment_passes(0))` for each budget b (swaps \
+             alone), other fields at their defaults \
              (σi 1.9, σs 1.0, tolerance 5·10⁻³, initial arrangement from a scalar STBN mask). \
              *Energy* is the optimiser's own objective (the sum over interacting pixel pairs of \
              the paper's §4.2 energy; lower is better) at the end of the run. Pass k of a run \
@@ -253,20 +268,31 @@ pub fn run(plan: &Plan) -> Result<Section> {
              ranks of a scalar STBN mask, and the first half of that curve is the half \
              x < ½ of the value box, so at budget 0 this integrand converges as the scalar \
              mask of the same size does (compare section 1), and swaps, which lower the energy \
-             of the whole vector, give some of that back.",
-            plan.seed, plan.longest_budget
+             of the whole vector, give some of that back. The rows with assignment passes run \
+             {} swaps per pixel and then a passes (`.with_assignment_passes(a)`); their trace \
+             is one run of {} passes, and their \"above … final\" columns compare with the \
+             swap-only long run, so a negative value beats it.",
+            plan.seed,
+            plan.longest_budget,
+            plan.assignment_swaps,
+            plan.assignment_passes.last().copied().unwrap_or(0),
         ),
         tables: vec![
             (
                 "swaps".to_owned(),
-                "Budgets run one by one.".to_owned(),
+                "Budgets run one by one (swaps alone, then swaps and assignment passes)."
+                    .to_owned(),
                 table,
             ),
             (
                 "swaps_trace".to_owned(),
                 format!(
-                    "The long run ({} swaps per pixel), at 0, 1, 2, 4, … swaps per pixel.",
-                    plan.longest_budget
+                    "The long run ({} swaps per pixel), at 0, 1, 2, 4, … swaps per pixel; then \
+                     the run of {} swaps per pixel and {} assignment passes, at 0, 1, 2, 4, … \
+                     passes.",
+                    plan.longest_budget,
+                    plan.assignment_swaps,
+                    plan.assignment_passes.last().copied().unwrap_or(0),
                 ),
                 trace_table,
             ),
@@ -295,4 +321,104 @@ pub fn run(plan: &Plan) -> Result<Section> {
         ],
         findings,
     })
+}
+
+/// The rows of `space` with assignment passes: `plan.assignment_swaps` swaps per pixel, then each
+/// count of `plan.assignment_passes` run on its own (time, energy, quality) into `table`, and the
+/// per-pass trace of the longest into `trace_table`. Energies are compared with `swap_final`, the
+/// final energy of the swap-only long run that took `swap_seconds`; returns the finding.
+fn assignment_rows(
+    plan: &Plan,
+    (name, space): (&str, &SampleSpace),
+    swap_final: f64,
+    swap_seconds: f64,
+    table: &mut Table,
+    trace_table: &mut Table,
+) -> Result<String> {
+    let (w, h, d) = plan.swap_size;
+    let pixels = (u64::from(w) * u64::from(h) * u64::from(d)) as f64;
+    let swaps = plan.assignment_swaps;
+    let spec_with = |passes: u32| {
+        VectorSpec::new(w, h, d, plan.seed, space.clone())
+            .with_swaps_per_pixel(swaps)
+            .with_assignment_passes(passes)
+    };
+    let Some(&longest) = plan.assignment_passes.last() else {
+        return Ok(format!("{name}: no assignment passes asked for."));
+    };
+    // The longest run, with the time at the end of every pass.
+    let mut stamps = Vec::new();
+    let start = Instant::now();
+    let (_, trace) = generate_vector_with_progress(&spec_with(longest), &mut |p| {
+        if p.passes_done.fract() == 0.0 {
+            stamps.push(start.elapsed().as_secs_f64());
+        }
+    })?;
+    let energies: Vec<f64> = trace.points.iter().map(|p| p.energy).collect();
+    let swap_passes = swaps.ceil() as usize;
+    let mut summary = Vec::new();
+    for &passes in &plan.assignment_passes {
+        let spec = spec_with(passes);
+        let (made, timing) = timed(plan.max_runs, plan.min_total, || generate_vector(&spec));
+        let (volume, trace) = made?;
+        if !timing.repeatable {
+            return Err(format!("{name}, {passes} assignment passes: repeated runs differ").into());
+        }
+        let end = trace.points.last().expect("a trace has its initial point");
+        let seconds = timing.median();
+        println!(
+            "  {name}: {swaps} swaps per pixel and {passes} assignment passes in {seconds:.3} s"
+        );
+        let same = energies
+            .get(swap_passes + passes as usize)
+            .map(|e| e.to_bits() == end.energy.to_bits());
+        let excess = 100.0 * (end.energy / swap_final - 1.0);
+        let quality = Quality::of_values(w, h, d, &first_component(&volume, is_signed(space)));
+        let mut row = vec![
+            Cell::text(name),
+            Cell::sig(swaps, 3),
+            Cell::int(u64::from(passes)),
+            Cell::sig(seconds, 3),
+            Cell::int(timing.runs.len() as u64),
+            Cell::sig(end.energy, 12),
+            Cell::fixed(end.energy / pixels, 5),
+            Cell::sig(excess, 3),
+            Cell::fixed(end.swaps_accepted as f64 / pixels, 3),
+            same.map_or_else(Cell::missing, Cell::yes_no),
+        ];
+        row.extend(quality.cells());
+        table.push(row);
+        summary.push(format!(
+            "{passes} passes in {seconds:.2} s end {excess:+.3}%"
+        ));
+    }
+    let initial = energies[0];
+    let decrease = initial - swap_final;
+    for (k, &energy) in energies.iter().enumerate().skip(swap_passes) {
+        let passes = (k - swap_passes) as u64;
+        if passes == 0 || passes.is_power_of_two() || passes == u64::from(longest) {
+            trace_table.push(vec![
+                Cell::text(name),
+                Cell::sig(swaps, 3),
+                Cell::int(passes),
+                Cell::opt_sig(k.checked_sub(1).and_then(|i| stamps.get(i).copied()), 3),
+                Cell::fixed(energy / pixels, 5),
+                Cell::sig(100.0 * (energy / swap_final - 1.0), 3),
+                Cell::fixed(
+                    if decrease > 0.0 {
+                        100.0 * (initial - energy) / decrease
+                    } else {
+                        100.0
+                    },
+                    1,
+                ),
+            ]);
+        }
+    }
+    Ok(format!(
+        "{name}: {swaps} swaps per pixel and then {}, against the final energy of {} swaps per \
+         pixel alone ({swap_seconds:.1} s; negative is lower).",
+        summary.join(", "),
+        plan.longest_budget
+    ))
 }
