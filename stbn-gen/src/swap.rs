@@ -91,7 +91,8 @@
 //!
 //! # Assignment passes
 //!
-//! Opt-in ([`crate::VectorSpec::assignment_passes`], after the swap passes): a move re-assigns the
+//! [`crate::VectorSpec::assignment_passes`] of them (12 by default since GENERATOR_VERSION 4) run
+//! after the swap passes. A move re-assigns the
 //! values of up to [`ASSIGNMENT_SET`] pixels of one slice at once. The pixels hold similar
 //! values and do not interact with each other (no offset between two of them is a tap), so
 //! permuting their values changes the energy by `Σ_i c(p_i, v_π(i)) − Σ_i c(p_i, v_i)`, where
@@ -102,13 +103,15 @@
 //! energies are updated as for a swap. Tiles are [`ASSIGNMENT_TILE_TARGET`] pixels wide and
 //! coloured as for swaps, so the passes are deterministic for any thread count (tested).
 //!
-//! Why: after the default's 128 swap passes, improving swaps are scarce (above), but improving
-//! permutations of similar values are not. A session-6 probe (64×64×32, seed 1, f64 code,
+//! Why: after 128 swap passes (the default then), improving swaps are scarce (above), but
+//! improving permutations of similar values are not. A session-6 probe (64×64×32, seed 1, f64 code,
 //! cost counted in `c(p, v)` evaluations, two per swap proposal) reached the energy of the
 //! default's next 128 swap passes for the cost of 32–40. In 16-pixel tiles the sets found few
 //! similar values (16 passes: Vec2 energy per pixel 3.274653); in 32-pixel tiles, 3.272816,
 //! below the 3.273994 of 128 more swap passes (BENCHMARKS.md, "Vector masks", has the
-//! 128×128×64 figures).
+//! 128×128×64 figures). Session 7 measured how to split a budget between the two moves: 64 swap
+//! passes first and then assignment passes did best for the time (BENCHMARKS.md, "Assignment
+//! passes").
 
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicU32, AtomicU64, Ordering::Relaxed};

@@ -288,7 +288,7 @@ pub fn run(plan: &Plan) -> Result<Section> {
                 "swaps_trace".to_owned(),
                 format!(
                     "The long run ({} swaps per pixel), at 0, 1, 2, 4, … swaps per pixel; then \
-                     the run of {} swaps per pixel and {} assignment passes, at 0, 1, 2, 4, … \
+                     the run of {} swaps per pixel and {} assignment passes, at 1, 2, 4, … \
                      passes.",
                     plan.longest_budget,
                     plan.assignment_swaps,
@@ -394,9 +394,10 @@ fn assignment_rows(
     }
     let initial = energies[0];
     let decrease = initial - swap_final;
-    for (k, &energy) in energies.iter().enumerate().skip(swap_passes) {
+    // From the first pass on: the point before it is the swap-only trace's.
+    for (k, &energy) in energies.iter().enumerate().skip(swap_passes + 1) {
         let passes = (k - swap_passes) as u64;
-        if passes == 0 || passes.is_power_of_two() || passes == u64::from(longest) {
+        if passes.is_power_of_two() || passes == u64::from(longest) {
             trace_table.push(vec![
                 Cell::text(name),
                 Cell::sig(swaps, 3),
