@@ -3,7 +3,7 @@
 //! Each entry is the finished `.stbn` blob, stored as `<dir>/<key>.stbn` where the key is the
 //! BLAKE3 hash of a canonical description of everything that determines the blob's bytes: the
 //! [`Recipe`] (generator, spec fields, image content hash, layout), the encoding and compression,
-//! [`GENERATOR_VERSION`], [`ENCODER_VERSION`](crate::encode::ENCODER_VERSION), the `.stbn` format
+//! [`GENERATOR_VERSION`], [`ENCODER_VERSION`], the `.stbn` format
 //! version and [`DEFLATE_LEVEL`]. Mask names are not
 //! part of the key, so equal masks under different names share an entry.
 //!

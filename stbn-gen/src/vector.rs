@@ -87,7 +87,7 @@ impl VectorSpec {
     pub const DEFAULT_SIGMA_VALUE: f64 = 1.0;
     /// Default budget in swaps proposed per pixel, run before
     /// [`VectorSpec::DEFAULT_ASSIGNMENT_PASSES`] assignment passes. Together they make Vec2 and
-    /// UnitVec3 at 128×128×64 in 28–40 s on the two cores here, inside the 60 s target, with
+    /// UnitVec3 at 128×128×64 in 28–42 s on the two cores here, inside the 60 s target, with
     /// FAST's filtered error 0.7% above that of 1024 swaps alone (3.3–4 min). BENCHMARKS.md
     /// ("Vector masks") has the curve, the times and the quality per budget, and what a much
     /// longer run still gains.
