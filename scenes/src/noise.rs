@@ -156,8 +156,7 @@ impl NoiseMask {
                     space.clone(),
                 );
                 if kind == NoiseKind::WhiteVectors {
-                    vector.swaps_per_pixel = 0.0;
-                    vector.assignment_passes = 0;
+                    vector = vector.unoptimised();
                     vector.initial_arrangement = InitialArrangement::Random;
                 }
                 let (volume, _trace) = stbn_gen::generate_vector(&vector)?;

@@ -1699,9 +1699,7 @@ mod tests {
             SampleSpace::Vec { dims: 4 },
         ];
         for space in spaces {
-            let spec = VectorSpec::new(16, 12, 6, 5, space.clone())
-                .with_swaps_per_pixel(0.0)
-                .with_assignment_passes(0);
+            let spec = VectorSpec::new(16, 12, 6, 5, space.clone()).unoptimised();
             let start = crate::generate_vector(&spec).unwrap().0.values().to_vec();
             // One tile over the whole slice (interior pixels and wrapping ones): no other tile
             // runs beside it.
@@ -1847,16 +1845,11 @@ mod tests {
         use crate::SampleSpace;
         for (w, h, d) in [(20, 18, 5), (9, 10, 3), (3, 2, 2), (1, 7, 4)] {
             let spec = VectorSpec::new(w, h, d, 3, SampleSpace::Vec { dims: 2 });
-            let start = crate::generate_vector(
-                &spec
-                    .clone()
-                    .with_swaps_per_pixel(0.0)
-                    .with_assignment_passes(0),
-            )
-            .unwrap()
-            .0
-            .values()
-            .to_vec();
+            let start = crate::generate_vector(&spec.clone().unoptimised())
+                .unwrap()
+                .0
+                .values()
+                .to_vec();
             let o = SwapOptimizer::new(&spec, start);
             let (k, shared) = (&o.kernel, o.shared());
             let taps = k.spatial.len() + k.temporal.len();

@@ -138,6 +138,13 @@ impl VectorSpec {
         self
     }
 
+    /// The same spec with no budget at all (no swaps, no assignment passes): [`generate_vector`]
+    /// then returns the initial arrangement of the stratified sets, the start the optimiser
+    /// would improve on.
+    pub fn unoptimised(self) -> VectorSpec {
+        self.with_swaps_per_pixel(0.0).with_assignment_passes(0)
+    }
+
     /// Number of pixels of one slice.
     pub fn slice_pixels(&self) -> u64 {
         u64::from(self.width) * u64::from(self.height)

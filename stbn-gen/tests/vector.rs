@@ -54,10 +54,7 @@ fn optimisation_keeps_each_slice_multiset_and_lowers_the_energy() {
     for space in every_space() {
         let spec = VectorSpec::new(12, 10, 4, 21, space.clone());
         // No optimisation at all, then 3 swap passes and the default assignment passes.
-        let unoptimised = spec
-            .clone()
-            .with_swaps_per_pixel(0.0)
-            .with_assignment_passes(0);
+        let unoptimised = spec.clone().unoptimised();
         let (before, start) = generate_vector(&unoptimised).unwrap();
         let (after, trace) = generate_vector(&spec.clone().with_swaps_per_pixel(3.0)).unwrap();
         assert_eq!(
@@ -291,10 +288,7 @@ fn masks_are_blue_in_space_and_time() {
         initial_arrangement: InitialArrangement::Random,
         ..VectorSpec::new(32, 32, 16, 8, SampleSpace::Vec { dims: 1 }).with_swaps_per_pixel(16.0)
     };
-    let unoptimised = spec
-        .clone()
-        .with_swaps_per_pixel(0.0)
-        .with_assignment_passes(0);
+    let unoptimised = spec.clone().unoptimised();
     let (start, _) = generate_vector(&unoptimised).unwrap();
     let (volume, _) = generate_vector(&spec).unwrap();
     let (s0, t0) = low_bands(&start, 0, false);
@@ -352,13 +346,7 @@ fn extreme_shapes_generate_and_keep_their_multisets() {
                     initial_arrangement: arrangement,
                     ..VectorSpec::new(w, h, d, 4, space.clone()).with_swaps_per_pixel(2.0)
                 };
-                let (before, _) = generate_vector(
-                    &spec
-                        .clone()
-                        .with_swaps_per_pixel(0.0)
-                        .with_assignment_passes(0),
-                )
-                .unwrap();
+                let (before, _) = generate_vector(&spec.clone().unoptimised()).unwrap();
                 let (after, trace) = generate_vector(&spec).unwrap();
                 assert_eq!((after.width(), after.height(), after.depth()), (w, h, d));
                 assert_eq!(after.values().len(), (w * h * d) as usize * space.dims());
@@ -389,13 +377,7 @@ fn tiny_and_huge_value_sigma_terminate() {
             sigma_value,
             ..VectorSpec::new(16, 12, 4, 2, SampleSpace::Vec { dims: 3 }).with_swaps_per_pixel(3.0)
         };
-        let (before, _) = generate_vector(
-            &spec
-                .clone()
-                .with_swaps_per_pixel(0.0)
-                .with_assignment_passes(0),
-        )
-        .unwrap();
+        let (before, _) = generate_vector(&spec.clone().unoptimised()).unwrap();
         let (after, trace) = generate_vector(&spec).unwrap();
         assert_eq!(slice_multisets(&before), slice_multisets(&after));
         // 3 swap passes, then the default assignment passes.
@@ -554,9 +536,7 @@ fn partners_nearest_in_value_beat_uniform_partners() {
     // The optimiser's proposal rule against uniform partners, from the same start, for the same
     // number of passes: the rule must end at a lower energy.
     for space in [SampleSpace::Vec { dims: 2 }, SampleSpace::UnitVec3] {
-        let spec = VectorSpec::new(32, 32, 16, 4, space.clone())
-            .with_swaps_per_pixel(0.0)
-            .with_assignment_passes(0);
+        let spec = VectorSpec::new(32, 32, 16, 4, space.clone()).unoptimised();
         let start = generate_vector(&spec).unwrap().0.values().to_vec();
         let run = |optimizer: SwapOptimizer| {
             let mut optimizer = optimizer;
