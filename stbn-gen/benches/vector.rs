@@ -1,13 +1,13 @@
 //! Vector generator speed, and its energy against the swap budget.
 //!
 //! `cargo bench -p stbn-gen --bench vector` times Vec2 and UnitVec3 at 32×32×16 with the default
-//! budget (swaps, then assignment passes). `STBN_BENCH_LARGE=1 cargo bench -p stbn-gen --bench vector -- vector_128` adds the
-//! issue's 128×128×64 (tens of seconds per sample).
+//! budget (swaps, then assignment passes). `STBN_BENCH_LARGE=1 cargo bench -p stbn-gen --bench
+//! vector -- vector_128` adds the 128×128×64 (tens of seconds per sample).
 //!
 //! `STBN_VECTOR_CURVE=WxHxD cargo bench -p stbn-gen --bench vector` instead prints, for Vec2 and
 //! UnitVec3 at that size, the energy per pixel after 0.5, 1, 2, 4, … 256 swaps per pixel and no
-//! assignment passes (from one long run's trace; 0.5 from its own run), with the time of the whole run and the low-band power
-//! of each component at the end. `STBN_VECTOR_CURVE_MAX` sets the longest budget (default 256).
+//! assignment passes (from one long run's trace; 0.5 from its own run), with the time of the
+//! whole run and the low-band power of each component at the end. `STBN_VECTOR_CURVE_MAX` sets the longest budget (default 256).
 //!
 //! `STBN_VECTOR_QUALITY=WxHxD cargo bench -p stbn-gen --bench vector` instead generates Vec2 and
 //! UnitVec3 at that size once per budget of `STBN_VECTOR_QUALITY_BUDGETS` (default `16,64,1024`

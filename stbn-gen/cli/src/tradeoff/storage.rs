@@ -301,8 +301,9 @@ pub fn encoding(plan: &Plan) -> Result<Section> {
              and mean errors show. The \
              quality columns are measured on the decoded values (the first component mapped to \
              [0, 1] for vectors); the first row of each mask is the generated values. Vector \
-             masks: {} swaps per pixel and no assignment passes, seed {}. \"MC RMSE 8 change\" compares the decoded \
-             mask's Monte Carlo RMSE after 8 samples with the generated one's.",
+             masks: {} swaps per pixel and no assignment passes, seed {}. \"MC RMSE 8 \
+             change\" compares the decoded mask's Monte Carlo RMSE after 8 samples with the \
+             generated one's.",
             plan.vector_budget, plan.seed
         ),
         tables: vec![("encoding".to_owned(), "Encodings.".to_owned(), table)],

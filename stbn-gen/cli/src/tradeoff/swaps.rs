@@ -271,7 +271,8 @@ pub fn run(plan: &Plan) -> Result<Section> {
              of the whole vector, give some of that back. The rows with assignment passes run \
              {} swaps per pixel and then a passes (`.with_assignment_passes(a)`); their trace \
              is one run of {} passes, and their \"above … final\" columns compare with the \
-             swap-only long run, so a negative value beats it.",
+             swap-only long run, so a negative value beats it. Their accepted swaps count each \
+             kept permutation as one.",
             plan.seed,
             plan.longest_budget,
             plan.assignment_swaps,
