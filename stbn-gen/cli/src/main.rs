@@ -4,6 +4,7 @@
 mod analyze;
 mod generate;
 mod ktx2;
+mod output;
 mod pairs;
 mod report;
 mod tradeoff;

@@ -13,6 +13,7 @@ use stbn_gen::baselines::white_noise;
 use stbn_gen::{EnergyTopology, MaskSpec};
 
 use crate::Result;
+use crate::output::{Cell, Column, Table};
 
 /// The plastic number `g`: the R2 offset of dimension 1 is `fract(1/g, 1/g²)` of the mask size,
 /// as `stbn_runtime::SampleOffset::dimension_offset(1)` gives it.
@@ -68,35 +69,41 @@ pub fn section(masks: &[PointMask]) -> Result<String> {
             .collect::<std::collections::BTreeSet<_>>()
             .into_iter()
             .collect();
-        let _ = writeln!(md, "\n### `{}` ({w}×{h}×{d})\n", mask.name);
-        let mut header = String::from("| samples | filtered |");
-        let mut rule = String::from("|---|---:|");
+        let mut columns = vec![
+            Column::markdown_only("samples", false),
+            Column::markdown_only("filtered", true),
+        ];
         for integrand in Integrand2D::ALL {
             for n in &frames {
-                let _ = write!(header, " {} MC@{n} | EMA@{n} |", integrand.name());
-                rule.push_str("---:|---:|");
+                columns.push(Column::markdown_only(
+                    &format!("{} MC@{n}", integrand.name()),
+                    true,
+                ));
+                columns.push(Column::markdown_only(&format!("EMA@{n}"), true));
             }
         }
-        let _ = writeln!(md, "{header}\n{rule}");
+        let mut table = Table::with_columns(columns);
         for (label, (xs, ys)) in rows {
             let (xs, ys) = (field(mask, xs)?, field(mask, ys)?);
             let filtered = filtered_error_vector(&[xs, ys], FilteredErrorOptions::default())
                 .map_err(|e| format!("{}: {e}", mask.name))?;
-            let _ = write!(md, "| {label} | {:.5} |", filtered[d - 1]);
+            let mut cells = vec![Cell::text(label), Cell::fixed(filtered[d - 1], 5)];
             for integrand in Integrand2D::ALL {
                 let curve = convergence_2d(&xs, &ys, integrand, ConvergenceOptions::new(d))
                     .map_err(|e| format!("{}: {e}", mask.name))?;
                 for &n in &frames {
-                    let _ = write!(
-                        md,
-                        " {:.4} | {:.4} |",
-                        curve.monte_carlo[n - 1],
-                        curve.ema[n - 1]
-                    );
+                    cells.push(Cell::fixed(curve.monte_carlo[n - 1], 4));
+                    cells.push(Cell::fixed(curve.ema[n - 1], 4));
                 }
             }
-            md.push('\n');
+            table.push(cells);
         }
+        let _ = write!(
+            md,
+            "\n### `{}` ({w}×{h}×{d})\n\n{}",
+            mask.name,
+            table.markdown()
+        );
     }
     Ok(md)
 }

@@ -2,12 +2,10 @@
 //! convergence figures of every integrand, PNG plots in `plots/`, DFT magnitude images in `dft/`
 //! and every number as CSV in `csv/`.
 
-pub(crate) mod csv;
-pub(crate) mod plots;
+mod csv;
 mod spectrum_images;
 
 use std::fmt::Write as _;
-use std::fs;
 use std::path::{Path, PathBuf};
 
 use stbn_gen::analysis::{
@@ -18,8 +16,7 @@ use stbn_gen::analysis::{
 };
 
 use crate::Result;
-use plots::{Axis, PALETTE, Plot};
-use plotters::chart::SeriesLabelPosition;
+use crate::output::{self, Axis, Cell, Chart, Column, Series, SeriesLabelPosition, Style, Table};
 
 /// Bins of the histogram-deviation column. 16 divides every power-of-two slice size from 16
 /// pixels up and the 256 levels of 8-bit PNGs, so exactly uniform slices measure exactly 0.
@@ -154,10 +151,10 @@ pub fn write(out: &Path, intro: &str, rows: &[Row]) -> Result<PathBuf> {
     let plot_dir = out.join(PLOT_DIR);
     let dft_dir = out.join(spectrum_images::DFT_DIR);
     for dir in [&plot_dir, &dft_dir] {
-        fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+        output::create_dir(dir)?;
     }
-    for Figure { file, plot, .. } in figures(rows) {
-        plots::write(&plot, &plot_dir.join(file))?;
+    for Figure { file, chart, .. } in figures(rows) {
+        chart.write_png(&plot_dir.join(file))?;
     }
     for (i, row) in rows.iter().enumerate() {
         let [xy, xz] = dft_files(i, row);
@@ -166,8 +163,7 @@ pub fn write(out: &Path, intro: &str, rows: &[Row]) -> Result<PathBuf> {
     }
     csv::write(out, rows)?;
     let path = out.join("report.md");
-    fs::write(&path, markdown(intro, rows))
-        .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    output::write_text(&path, &markdown(intro, rows))?;
     Ok(path)
 }
 
@@ -196,23 +192,30 @@ const PLOT_DIR: &str = "plots";
 /// its axes.
 struct Figure {
     file: String,
-    plot: Plot,
+    chart: Chart,
     axes: &'static str,
 }
 
 /// Every plot of the report. Series `i` is `rows[i]`.
 fn figures(rows: &[Row]) -> Vec<Figure> {
-    let names: Vec<String> = rows.iter().map(|row| row.name.clone()).collect();
-    let plot = |title: &str, x, y, legend, series, reference| Plot {
+    let plot = |title: &str, x, y, legend, points: Vec<Vec<(f64, f64)>>, reference| Chart {
         title: title.to_owned(),
-        names: names.clone(),
-        legend,
         x,
         y,
-        series,
+        series: rows
+            .iter()
+            .zip(points)
+            .map(|(row, points)| Series {
+                name: row.name.clone(),
+                points,
+                labels: Vec::new(),
+                style: Style::Line,
+            })
+            .collect(),
+        legend,
         reference,
     };
-    let power = || Axis::linear("normalised power (white noise = 1)", 0.0, 2.5, 0.5);
+    let power = || Axis::linear_range("normalised power (white noise = 1)", 0.0, 2.5, 0.5);
     // Radial: ring r of a slice whose longest side is L sits at r / L cycles per pixel. Rings
     // beyond L / 2 hold only the corners of the frequency square, and DC is 0 by definition
     // (the mean is removed): both left out, as is DC of the temporal spectrum.
@@ -243,9 +246,9 @@ fn figures(rows: &[Row]) -> Vec<Figure> {
     let mut all = vec![
         Figure {
             file: "radial.png".to_owned(),
-            plot: plot(
+            chart: plot(
                 "Radial spatial spectrum",
-                Axis::linear("radial frequency (cycles per pixel)", 0.0, 0.5, 0.0625),
+                Axis::linear_range("radial frequency (cycles per pixel)", 0.0, 0.5, 0.0625),
                 power(),
                 SeriesLabelPosition::UpperLeft,
                 radial,
@@ -257,9 +260,9 @@ fn figures(rows: &[Row]) -> Vec<Figure> {
         },
         Figure {
             file: "temporal.png".to_owned(),
-            plot: plot(
+            chart: plot(
                 "Temporal spectrum",
-                Axis::linear("temporal frequency (cycles per frame)", 0.0, 0.5, 0.0625),
+                Axis::linear_range("temporal frequency (cycles per frame)", 0.0, 0.5, 0.0625),
                 power(),
                 SeriesLabelPosition::UpperLeft,
                 temporal,
@@ -270,10 +273,10 @@ fn figures(rows: &[Row]) -> Vec<Figure> {
         },
         Figure {
             file: "filtered_error.png".to_owned(),
-            plot: plot(
+            chart: plot(
                 "Filtered error per frame",
-                Axis::linear("frame", 0.0, longest, (longest / 8.0).max(1.0)),
-                Axis::decades("filtered error (coverage)", -3, -1),
+                Axis::linear_range("frame", 0.0, longest, (longest / 8.0).max(1.0)),
+                Axis::log_decades("filtered error (coverage)", -3, -1),
                 SeriesLabelPosition::UpperRight,
                 filtered,
                 None,
@@ -298,10 +301,10 @@ fn figures(rows: &[Row]) -> Vec<Figure> {
             );
             all.push(Figure {
                 file: estimator.plot_file(integrand),
-                plot: plot(
+                chart: plot(
                     &title,
-                    Axis::decades("samples", 0, 2),
-                    Axis::decades("RMSE over pixels", -3, 0),
+                    Axis::log_decades("samples", 0, 2),
+                    Axis::log_decades("RMSE over pixels", -3, 0),
                     SeriesLabelPosition::LowerLeft,
                     series,
                     None,
@@ -355,36 +358,80 @@ impl Estimator {
     }
 }
 
+/// The figures of every mask, one row each: the report's table and `summary.csv`. The table
+/// shows the size as `w×h×frames` and the step-integrand RMSE at every count of
+/// [`CONVERGENCE_AT`] in one column per estimator; the CSV file has the size's three numbers and
+/// a column per count.
+fn summary_table(rows: &[Row]) -> Table {
+    let at = CONVERGENCE_AT.map(|n| n.to_string()).join("/");
+    let mut columns = vec![
+        Column::both("mask", "mask", false),
+        Column::markdown_only("size", false),
+        Column::both("kind", "kind", false),
+        Column::csv_only("width"),
+        Column::csv_only("height"),
+        Column::csv_only("frames"),
+        Column::both("seconds", "seconds", true),
+        Column::both("spatial_low_band", "spatial low band", true),
+        Column::both("temporal_low_band", "temporal low band", true),
+        Column::both(
+            "slice_histogram_deviation",
+            "frame histogram deviation",
+            true,
+        ),
+        Column::both(
+            "pixel_histogram_deviation",
+            "pixel histogram deviation",
+            true,
+        ),
+        Column::both("filtered_error_last", "filtered error", true),
+    ];
+    for estimator in Estimator::ALL {
+        let label = estimator.label();
+        let csv = CONVERGENCE_AT.map(|n| format!("step_{}_rmse_{n}", label.to_lowercase()));
+        columns.extend(csv.iter().map(|name| Column::csv_only(name)));
+        columns.push(Column::markdown_only(
+            &format!("step {label} RMSE at {at}"),
+            true,
+        ));
+    }
+    let mut table = Table::with_columns(columns);
+    for row in rows {
+        let (width, height, frames) = row.size;
+        let mut cells = vec![
+            Cell::text(&row.name),
+            Cell::text(size(row.size)),
+            Cell::text(&row.kind),
+            Cell::int(width as u64),
+            Cell::int(height as u64),
+            Cell::int(frames as u64),
+            Cell::opt_fixed(row.seconds, 2),
+            Cell::opt_fixed(row.spatial, 4),
+            Cell::opt_fixed(row.temporal, 4),
+            Cell::fixed(row.histogram, 4),
+            Cell::fixed(row.pixel_histogram, 4),
+            Cell::fixed(row.filtered_last(), 5),
+        ];
+        let step = row.curves(Integrand::Step);
+        for estimator in Estimator::ALL {
+            let curve = estimator.curve(step);
+            let at = CONVERGENCE_AT.map(|n| curve.get(n - 1).copied());
+            cells.extend(at.map(|e| Cell::opt_fixed(e, 4)));
+            cells.push(Cell::text(at_samples(curve)));
+        }
+        table.push(cells);
+    }
+    table
+}
+
 /// The report: heading, `intro`, the table, what its columns mean, the convergence figures of
 /// every integrand and the plots.
 fn markdown(intro: &str, rows: &[Row]) -> String {
     let at = CONVERGENCE_AT.map(|n| n.to_string()).join("/");
     let mut text = format!(
-        "# Blue-noise mask report\n\n{intro}\n\n\
-         | mask | size | kind | seconds | spatial low band | temporal low band \
-         | frame histogram deviation | pixel histogram deviation | filtered error \
-         | step MC RMSE at {at} | step EMA RMSE at {at} |\n\
-         |---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n"
+        "# Blue-noise mask report\n\n{intro}\n\n{}",
+        summary_table(rows).markdown()
     );
-    for row in rows {
-        let seconds = row.seconds.map_or("n/a".to_owned(), |s| format!("{s:.2}"));
-        let step = row.curves(Integrand::Step);
-        writeln!(
-            text,
-            "| {} | {} | {} | {seconds} | {} | {} | {:.4} | {:.4} | {:.5} | {} | {} |",
-            row.name.replace('|', "\\|"),
-            size(row.size),
-            row.kind,
-            band(row.spatial),
-            band(row.temporal),
-            row.histogram,
-            row.pixel_histogram,
-            row.filtered_last(),
-            at_samples(&step.monte_carlo),
-            at_samples(&step.ema),
-        )
-        .expect("writing to a String cannot fail");
-    }
     text.push_str(&format!(
         "\n\
 Columns:\n\n\
@@ -467,14 +514,14 @@ fn csv_section(text: &mut String, rows: &[Row]) {
         "\n## Numbers as CSV\n\n\
          Every figure and curve above, one header row each, one row per mask and point:\n\n",
     );
-    for table in csv::tables(rows) {
+    for file in csv::files(rows) {
         writeln!(
             text,
-            "- [`{file}`]({dir}/{file}): {about}; columns {columns}.",
-            file = table.file,
+            "- [`{name}`]({dir}/{name}): {about}; columns {columns}.",
+            name = file.name,
             dir = csv::CSV_DIR,
-            about = table.about,
-            columns = table.header.join(", "),
+            about = file.about,
+            columns = file.table.csv_header().collect::<Vec<_>>().join(", "),
         )
         .expect("String");
     }
@@ -537,15 +584,15 @@ fn plot_section(text: &mut String, rows: &[Row]) {
     let legend: Vec<String> = rows
         .iter()
         .enumerate()
-        .map(|(i, row)| format!("{} = {}", PALETTE[i % PALETTE.len()].0, row.name))
+        .map(|(i, row)| format!("{} = {}", output::colour_name(i), row.name))
         .collect();
     text.push_str(&legend.join(", "));
     text.push_str(
         ". Titles, tick labels and legends are drawn only where a TrueType font was found \
          (`$STBN_PLOT_FONT` or a system font); the axes are stated under each plot either way.\n",
     );
-    for Figure { file, plot, axes } in figures(rows) {
-        let title = &plot.title;
+    for Figure { file, chart, axes } in figures(rows) {
+        let title = &chart.title;
         write!(
             text,
             "\n**{title}.** {axes}\n\n![{title}]({PLOT_DIR}/{file})\n"
@@ -576,6 +623,7 @@ fn band(value: Option<f64>) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::fs;
 
     fn ramp_field() -> Vec<f64> {
         (0..64 * 4)

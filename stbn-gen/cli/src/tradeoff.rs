@@ -8,16 +8,13 @@
 //! uses seed 7. `--quick` runs the same code on small masks (for CI, well under a minute in a
 //! debug build); its figures are not the ones to quote.
 
-mod chart;
 mod measure;
 mod scalar;
 mod scale;
 mod storage;
 mod swaps;
-mod table;
 
 use std::fmt::Write as _;
-use std::fs;
 use std::path::Path;
 use std::time::Instant;
 
@@ -25,8 +22,7 @@ use clap::ValueEnum;
 use stbn_gen::VectorSpec;
 
 use crate::Result;
-use chart::Chart;
-use table::Table;
+use crate::output::{self, Chart, Table};
 
 /// One measured knob (a section of tradeoff.md).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, ValueEnum)]
@@ -203,7 +199,7 @@ pub fn run(out: &Path, quick: bool, only: &[Knob]) -> Result<()> {
     } else {
         Knob::ALL.into_iter().filter(|k| only.contains(k)).collect()
     };
-    fs::create_dir_all(out).map_err(|e| format!("cannot create {}: {e}", out.display()))?;
+    output::create_dir(out)?;
     let mut text = header(&plan, &knobs);
     for knob in knobs {
         let (started, load_before) = (measure::utc_now(), measure::load_average());
@@ -229,7 +225,7 @@ pub fn run(out: &Path, quick: bool, only: &[Knob]) -> Result<()> {
         text.push_str(&markdown);
     }
     let path = out.join("tradeoff.md");
-    fs::write(&path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    output::write_text(&path, &text)?;
     println!("tradeoff: {}", path.display());
     Ok(())
 }
@@ -291,9 +287,7 @@ fn write_section(
     );
     for (stem, caption, table) in &section.tables {
         let file = format!("{stem}.csv");
-        let path = out.join(&file);
-        fs::write(&path, table.csv())
-            .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        table.write_csv(&out.join(&file))?;
         write!(
             text,
             "\n{caption} ([`{file}`]({file}))\n\n{}",
@@ -309,7 +303,7 @@ fn write_section(
     }
     for (stem, chart) in &section.charts {
         let file = format!("{stem}.png");
-        chart::write(chart, &out.join(&file))?;
+        chart.write_png(&out.join(&file))?;
         write!(
             text,
             "\n{}\n\n![{}]({file})\n",
@@ -318,8 +312,7 @@ fn write_section(
         )
         .expect("String");
     }
-    let path = out.join(format!("{}.md", section.knob.key()));
-    fs::write(&path, &text).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    output::write_text(&out.join(format!("{}.md", section.knob.key())), &text)?;
     Ok(text)
 }
 

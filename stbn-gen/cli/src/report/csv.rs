@@ -1,7 +1,5 @@
-//! The report's numbers as CSV files (RFC 4180: comma-separated, a header row, fields quoted
-//! when they hold a comma, quote or line break, `\r\n`-free `\n` line ends), one file per kind
-//! of figure, in long form (one row per mask and point) so masks of different sizes share a
-//! file.
+//! The report's numbers as CSV files ([`Table::csv`]), one file per kind of figure, in long form
+//! (one row per mask and point) so masks of different sizes share a file.
 //!
 //! | file | columns |
 //! |---|---|
@@ -15,82 +13,46 @@
 //! holds); a figure that does not exist (e.g. the temporal low band of a single frame) is an
 //! empty field.
 
-use std::fs;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use stbn_gen::analysis::Integrand;
 
-use super::{Estimator, Row};
+use super::{Estimator, Row, summary_table};
 use crate::Result;
+use crate::output::{self, Cell, Column, Table};
 
 /// The folder of the CSV files, relative to report.md.
 pub const CSV_DIR: &str = "csv";
 
-/// One CSV file: its name in [`CSV_DIR`], what a row is, its header and rows.
-pub struct Table {
+/// One CSV file: its name in [`CSV_DIR`], what a row is, and its table.
+pub struct CsvFile {
     /// File name, e.g. `summary.csv`.
-    pub file: &'static str,
+    pub name: &'static str,
     /// What one row holds, for the report's list of files.
     pub about: &'static str,
-    /// Column names.
-    pub header: Vec<&'static str>,
-    /// Rows of fields, each as long as the header.
-    pub rows: Vec<Vec<String>>,
+    /// The columns and rows.
+    pub table: Table,
 }
 
-impl Table {
-    /// The file's text: header and rows, quoted where needed, one line each.
-    pub fn text(&self) -> String {
-        let line = |fields: &mut dyn Iterator<Item = &str>| {
-            let quoted: Vec<String> = fields.map(quote).collect();
-            quoted.join(",") + "\n"
-        };
-        let mut text = line(&mut self.header.iter().copied());
-        for row in &self.rows {
-            debug_assert_eq!(row.len(), self.header.len());
-            text.push_str(&line(&mut row.iter().map(String::as_str)));
-        }
-        text
+/// A table of `columns` with one row per item of `rows`.
+fn long_table<const N: usize>(
+    columns: [&'static str; N],
+    rows: impl IntoIterator<Item = [Cell; N]>,
+) -> Table {
+    let mut table = Table::with_columns(columns.map(Column::csv_only));
+    for row in rows {
+        table.push(row.into());
     }
+    table
 }
 
-/// Every table of `rows` ([module docs](self)).
-pub fn tables(rows: &[Row]) -> Vec<Table> {
-    let number = |v: f64| format!("{v}");
-    let optional = |v: Option<f64>| v.map(number).unwrap_or_default();
-    let summary = rows
-        .iter()
-        .map(|row| {
-            let step = row.curves(Integrand::Step);
-            let mut fields = vec![
-                row.name.clone(),
-                row.kind.clone(),
-                row.size.0.to_string(),
-                row.size.1.to_string(),
-                row.size.2.to_string(),
-                optional(row.seconds),
-                optional(row.spatial),
-                optional(row.temporal),
-                number(row.histogram),
-                number(row.pixel_histogram),
-                number(row.filtered_last()),
-            ];
-            for curve in [&step.monte_carlo, &step.ema] {
-                fields.extend(
-                    super::CONVERGENCE_AT
-                        .map(|n| curve.get(n - 1).copied().map(number).unwrap_or_default()),
-                );
-            }
-            fields
-        })
-        .collect();
-    let filtered = rows
-        .iter()
-        .flat_map(|row| {
-            let frames = row.filtered.iter().enumerate();
-            frames.map(|(k, &e)| vec![row.name.clone(), k.to_string(), number(e)])
-        })
-        .collect();
+/// Every CSV file of `rows` ([module docs](self)).
+pub fn files(rows: &[Row]) -> Vec<CsvFile> {
+    let name = |row: &Row| Cell::text(&row.name);
+    let filtered = rows.iter().flat_map(|row| {
+        let frames = row.filtered.iter().enumerate();
+        frames.map(|(k, &e)| [name(row), Cell::int(k as u64), Cell::fixed(e, 5)])
+    });
     let mut convergence = Vec::new();
     for row in rows {
         for integrand in Integrand::ALL {
@@ -101,147 +63,90 @@ pub fn tables(rows: &[Row]) -> Vec<Table> {
             for estimator in Estimator::ALL {
                 for (start, curves) in starts {
                     for (k, &e) in estimator.curve(curves).iter().enumerate() {
-                        convergence.push(vec![
-                            row.name.clone(),
-                            integrand.name().to_owned(),
-                            estimator.label().to_owned(),
-                            start.to_string(),
-                            (k + 1).to_string(),
-                            number(e),
+                        convergence.push([
+                            name(row),
+                            Cell::text(integrand.name()),
+                            Cell::text(estimator.label()),
+                            Cell::int(start as u64),
+                            Cell::int(k as u64 + 1),
+                            Cell::fixed(e, 4),
                         ]);
                     }
                 }
             }
         }
     }
-    let radial = rows
-        .iter()
-        .flat_map(|row| {
-            let long = row.size.0.max(row.size.1) as f64;
-            let rings = row.radial.iter().enumerate();
-            rings.map(move |(r, &p)| {
-                let name = row.name.clone();
-                vec![name, r.to_string(), number(r as f64 / long), number(p)]
-            })
+    let radial = rows.iter().flat_map(|row| {
+        let long = row.size.0.max(row.size.1) as f64;
+        let rings = row.radial.iter().enumerate();
+        rings.map(move |(r, &p)| {
+            let frequency = Cell::fixed(r as f64 / long, 4);
+            [name(row), Cell::int(r as u64), frequency, Cell::fixed(p, 4)]
         })
-        .collect();
-    let temporal = rows
-        .iter()
-        .flat_map(|row| {
-            let frames = row.size.2 as f64;
-            let bins = row.temporal_spectrum.iter().enumerate();
-            bins.map(move |(f, &p)| {
-                let name = row.name.clone();
-                vec![name, f.to_string(), number(f as f64 / frames), number(p)]
-            })
+    });
+    let temporal = rows.iter().flat_map(|row| {
+        let frames = row.size.2 as f64;
+        let bins = row.temporal_spectrum.iter().enumerate();
+        bins.map(move |(f, &p)| {
+            let frequency = Cell::fixed(f as f64 / frames, 4);
+            [name(row), Cell::int(f as u64), frequency, Cell::fixed(p, 4)]
         })
-        .collect();
+    });
     vec![
-        Table {
-            file: "summary.csv",
+        CsvFile {
+            name: "summary.csv",
             about: "one row per mask: size, generation seconds, low bands, histogram \
                     deviations, last-frame filtered error, step-integrand RMSE",
-            header: vec![
-                "mask",
-                "kind",
-                "width",
-                "height",
-                "frames",
-                "seconds",
-                "spatial_low_band",
-                "temporal_low_band",
-                "slice_histogram_deviation",
-                "pixel_histogram_deviation",
-                "filtered_error_last",
-                "step_mc_rmse_1",
-                "step_mc_rmse_4",
-                "step_mc_rmse_16",
-                "step_mc_rmse_64",
-                "step_ema_rmse_1",
-                "step_ema_rmse_4",
-                "step_ema_rmse_16",
-                "step_ema_rmse_64",
-            ],
-            rows: summary,
+            table: summary_table(rows),
         },
-        Table {
-            file: "filtered_error.csv",
+        CsvFile {
+            name: "filtered_error.csv",
             about: "FAST filtered error per mask and frame",
-            header: vec!["mask", "frame", "filtered_error"],
-            rows: filtered,
+            table: long_table(["mask", "frame", "filtered_error"], filtered),
         },
-        Table {
-            file: "convergence.csv",
+        CsvFile {
+            name: "convergence.csv",
             about: "RMSE per mask, integrand, estimator (MC or EMA), start frame and number of \
                     samples",
-            header: vec![
-                "mask",
-                "integrand",
-                "estimator",
-                "start_frame",
-                "samples",
-                "rmse",
-            ],
-            rows: convergence,
+            table: long_table(
+                [
+                    "mask",
+                    "integrand",
+                    "estimator",
+                    "start_frame",
+                    "samples",
+                    "rmse",
+                ],
+                convergence,
+            ),
         },
-        Table {
-            file: "radial_spectrum.csv",
+        CsvFile {
+            name: "radial_spectrum.csv",
             about: "radially averaged spatial power per mask and ring (ring r at r / longest \
                     side cycles per pixel)",
-            header: vec!["mask", "ring", "cycles_per_pixel", "normalised_power"],
-            rows: radial,
+            table: long_table(
+                ["mask", "ring", "cycles_per_pixel", "normalised_power"],
+                radial,
+            ),
         },
-        Table {
-            file: "temporal_spectrum.csv",
+        CsvFile {
+            name: "temporal_spectrum.csv",
             about: "per-pixel temporal power per mask and frequency (cycles per sequence and \
                     per frame)",
-            header: vec!["mask", "frequency", "cycles_per_frame", "normalised_power"],
-            rows: temporal,
+            table: long_table(
+                ["mask", "frequency", "cycles_per_frame", "normalised_power"],
+                temporal,
+            ),
         },
     ]
 }
 
-/// Writes every table of `rows` into `<out>/`[`CSV_DIR`] (creating it) and returns them with
-/// their paths.
-pub fn write(out: &Path, rows: &[Row]) -> Result<Vec<(PathBuf, Table)>> {
+/// Writes every CSV file of `rows` into `<out>/`[`CSV_DIR`] (creating it).
+pub fn write(out: &Path, rows: &[Row]) -> Result<()> {
     let dir = out.join(CSV_DIR);
-    fs::create_dir_all(&dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
-    tables(rows)
-        .into_iter()
-        .map(|table| {
-            let path = dir.join(table.file);
-            fs::write(&path, table.text())
-                .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
-            Ok((path, table))
-        })
-        .collect()
-}
-
-/// `field` as one CSV field: quoted (inner quotes doubled) when it holds a comma, a quote or a
-/// line break.
-pub(crate) fn quote(field: &str) -> String {
-    if field.contains([',', '"', '\n', '\r']) {
-        format!("\"{}\"", field.replace('"', "\"\""))
-    } else {
-        field.to_owned()
+    output::create_dir(&dir)?;
+    for file in files(rows) {
+        file.table.write_csv(&dir.join(file.name))?;
     }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn fields_are_quoted_only_when_needed() {
-        assert_eq!(quote("stbn_64"), "stbn_64");
-        assert_eq!(quote("a,b"), "\"a,b\"");
-        assert_eq!(quote("say \"hi\""), "\"say \"\"hi\"\"\"");
-        let table = Table {
-            file: "t.csv",
-            about: "",
-            header: vec!["mask", "value"],
-            rows: vec![vec!["a,b".to_owned(), "0.5".to_owned()]],
-        };
-        assert_eq!(table.text(), "mask,value\n\"a,b\",0.5\n");
-    }
+    Ok(())
 }

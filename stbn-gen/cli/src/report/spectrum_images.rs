@@ -1,13 +1,12 @@
 //! The DFT magnitude images of the report ([`stbn_gen::analysis::dft`]) as 8-bit grayscale PNGs,
 //! enlarged by an integer factor (nearest neighbour) so small masks stay visible.
 
-use std::fs::File;
-use std::io::BufWriter;
 use std::path::Path;
 
 use stbn_gen::analysis::SpectrumImage;
 
 use crate::Result;
+use crate::output;
 
 /// The folder of the images, relative to report.md.
 pub const DFT_DIR: &str = "dft";
@@ -36,16 +35,7 @@ pub fn write(image: &SpectrumImage, path: &Path) -> Result<()> {
             pixels.extend_from_slice(&wide);
         }
     }
-    let failed = |e: &dyn std::fmt::Display| format!("cannot write {}: {e}", path.display());
-    let size = |n: usize| u32::try_from(n).map_err(|e| failed(&e));
-    let file = File::create(path).map_err(|e| failed(&e))?;
-    let mut encoder = png::Encoder::new(BufWriter::new(file), size(w)?, size(h)?);
-    encoder.set_color(png::ColorType::Grayscale);
-    encoder.set_depth(png::BitDepth::Eight);
-    let mut writer = encoder.write_header().map_err(|e| failed(&e))?;
-    writer.write_image_data(&pixels).map_err(|e| failed(&e))?;
-    writer.finish().map_err(|e| failed(&e))?;
-    Ok(())
+    output::write_png(path, (w, h), png::ColorType::Grayscale, &pixels)
 }
 
 #[cfg(test)]
@@ -65,7 +55,8 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("x.png");
         write(&image, &path).unwrap();
-        let decoder = png::Decoder::new(std::io::BufReader::new(File::open(&path).unwrap()));
+        let file = std::fs::File::open(&path).unwrap();
+        let decoder = png::Decoder::new(std::io::BufReader::new(file));
         let mut reader = decoder.read_info().unwrap();
         let mut pixels = vec![0; reader.output_buffer_size().unwrap()];
         let info = reader.next_frame(&mut pixels).unwrap();

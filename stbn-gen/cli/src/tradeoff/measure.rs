@@ -20,7 +20,7 @@ use stbn_gen::analysis::{
     spatial_low_band, temporal_low_band,
 };
 
-use super::table::Cell;
+use crate::output::Cell;
 
 /// The sample counts the convergence RMSE is reported at.
 pub const RMSE_AT: [usize; 3] = [8, 32, 64];

@@ -2,13 +2,10 @@
 
 use stbn_gen::{EnergyKernel, MaskSpec, Volume};
 
-use plotters::chart::SeriesLabelPosition;
-
-use super::chart::{Axis, Chart, Series};
 use super::measure::{Quality, Timing, timed};
-use super::table::{Cell, Table};
 use super::{Knob, Plan, Section, size_name};
 use crate::Result;
+use crate::output::{Axis, Cell, Chart, Series, SeriesLabelPosition, Table};
 
 /// One generated scalar mask: its time, memory and quality.
 struct Measured {
@@ -132,6 +129,7 @@ pub fn size(plan: &Plan) -> Result<Section> {
                     y: Axis::log("seconds"),
                     series: time_series,
                     legend: SeriesLabelPosition::UpperLeft,
+                    reference: None,
                 },
             ),
             (
@@ -142,6 +140,7 @@ pub fn size(plan: &Plan) -> Result<Section> {
                     y: Axis::linear("filtered error (lower is better)"),
                     series: quality_series,
                     legend: SeriesLabelPosition::UpperRight,
+                    reference: None,
                 },
             ),
         ],
@@ -258,6 +257,7 @@ pub fn kernel(plan: &Plan) -> Result<Section> {
                     y: Axis::linear("filtered error, last frame (lower is better)"),
                     series: vec![sigma_f, tol_f],
                     legend: SeriesLabelPosition::UpperRight,
+                    reference: None,
                 },
             ),
             (
@@ -268,6 +268,7 @@ pub fn kernel(plan: &Plan) -> Result<Section> {
                     y: Axis::linear("step MC RMSE at 8 samples (lower is better)"),
                     series: vec![sigma_mc, tol_mc],
                     legend: SeriesLabelPosition::UpperRight,
+                    reference: None,
                 },
             ),
         ],

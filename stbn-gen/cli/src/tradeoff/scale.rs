@@ -4,9 +4,9 @@
 use stbn_gen::{MaskSpec, SampleSpace, VectorSpec};
 
 use super::measure::{Timing, load_average, timed};
-use super::table::{Cell, Table};
 use super::{Knob, Plan, Section, size_name};
 use crate::Result;
+use crate::output::{Cell, Table};
 
 /// Runs `work` under [`timed`] inside a rayon pool of `threads` threads.
 fn in_pool<T: PartialEq + Send>(

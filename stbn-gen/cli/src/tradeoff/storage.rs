@@ -10,14 +10,11 @@ use stbn_build_support::encode::{
 use stbn_gen::{MaskSpec, SampleSpace, VectorSpec, VectorVolume, Volume};
 use stbn_runtime::{Compression, Encoding, PackedStbn, SampleOffset, Stbn};
 
-use plotters::chart::SeriesLabelPosition;
-
-use super::chart::{Axis, Chart, Series};
 use super::measure::Quality;
 use super::swaps::{first_component, is_signed, spaces};
-use super::table::{Cell, Table};
 use super::{Knob, Plan, Section, size_name};
 use crate::Result;
+use crate::output::{self, Axis, Cell, Chart, Series, SeriesLabelPosition, Style, Table};
 
 const ENCODINGS: [Encoding; 3] = [Encoding::Unorm8, Encoding::Unorm16, Encoding::F32];
 const COMPRESSIONS: [Compression; 3] = [Compression::None, Compression::Lz4, Compression::Deflate];
@@ -268,7 +265,7 @@ pub fn encoding(plan: &Plan) -> Result<Section> {
                     findings.push(format!(
                         "{name}, {layout_name}, Unorm8: RMS error {} {unit}, filtered error \
                          {:.5} against {:.5} exact, MC RMSE at 8 samples {:.4} against {:.4}.",
-                        super::table::significant(decoded.rms_error, 3),
+                        output::significant(decoded.rms_error, 3),
                         quality.filtered_last,
                         exact.filtered_last,
                         quality.mc_step[0],
@@ -315,6 +312,7 @@ pub fn encoding(plan: &Plan) -> Result<Section> {
                 y: Axis::log("RMS error (value units; degrees for UnitVec3)"),
                 series,
                 legend: SeriesLabelPosition::UpperRight,
+                reference: None,
             },
         )],
         findings,
@@ -374,7 +372,7 @@ pub fn compression(plan: &Plan) -> Result<Section> {
         .iter()
         .map(|c| Series {
             name: format!("{c:?}"),
-            scatter: true,
+            style: Style::Points,
             ..Series::default()
         })
         .collect();
@@ -421,11 +419,11 @@ pub fn compression(plan: &Plan) -> Result<Section> {
                     },
                     Cell {
                         csv: format!("{verify}"),
-                        md: super::table::significant(verify * 1e6, 3),
+                        md: output::significant(verify * 1e6, 3),
                     },
                     Cell {
                         csv: format!("{decode}"),
-                        md: super::table::significant(decode * 1e6, 3),
+                        md: output::significant(decode * 1e6, 3),
                     },
                     Cell::sig(raw as f64 / decode / 1e9, 3),
                 ]);
@@ -469,6 +467,7 @@ pub fn compression(plan: &Plan) -> Result<Section> {
                 y: Axis::log("decode GB/s (decoded bytes per second)"),
                 series,
                 legend: SeriesLabelPosition::UpperLeft,
+                reference: None,
             },
         )],
         findings,

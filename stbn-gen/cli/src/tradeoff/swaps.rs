@@ -7,13 +7,10 @@ use stbn_gen::{
     SampleSpace, VectorSpec, VectorVolume, generate_vector, generate_vector_with_progress,
 };
 
-use plotters::chart::SeriesLabelPosition;
-
-use super::chart::{Axis, Chart, Series};
 use super::measure::{Quality, timed, with_peak_memory};
-use super::table::{Cell, Table};
 use super::{Knob, Plan, Section, size_name};
 use crate::Result;
+use crate::output::{Axis, Cell, Chart, Series, SeriesLabelPosition, Table};
 
 /// The spaces the vector knobs measure, with their names.
 pub fn spaces() -> [(&'static str, SampleSpace); 2] {
@@ -307,6 +304,7 @@ pub fn run(plan: &Plan) -> Result<Section> {
                     y: Axis::linear("energy, % of the initial (budget 0) energy"),
                     series: excess_series,
                     legend: SeriesLabelPosition::LowerLeft,
+                    reference: None,
                 },
             ),
             (
@@ -317,6 +315,7 @@ pub fn run(plan: &Plan) -> Result<Section> {
                     y: Axis::log("seconds"),
                     series: time_series,
                     legend: SeriesLabelPosition::UpperLeft,
+                    reference: None,
                 },
             ),
         ],

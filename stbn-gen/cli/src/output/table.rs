@@ -1,7 +1,11 @@
 //! A table of figures written twice: as CSV (every digit an `f64` holds, empty for a missing
-//! figure) and as a markdown table (rounded for reading, `n/a` for a missing figure).
+//! figure) and as a markdown table (rounded for reading, `n/a` for a missing figure). A column
+//! may be in both or in only one of them, so one table can show a figure one way for reading
+//! (`64×64×32`) and another for machines (`width`, `height`, `frames`).
 
-use crate::report::csv::quote;
+use std::path::Path;
+
+use crate::Result;
 
 /// One field: its CSV text and its markdown text.
 #[derive(Clone, Debug, PartialEq)]
@@ -105,38 +109,67 @@ fn group_digits(value: u64) -> String {
     out
 }
 
-/// One column: its CSV name (`snake_case`, with units) and its markdown heading.
+/// One column: its CSV name (`snake_case`, with units) and its markdown heading; `None` leaves
+/// it out of that format.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Column {
     /// CSV header field.
-    pub csv: &'static str,
+    csv: Option<String>,
     /// Markdown heading.
-    pub md: String,
+    md: Option<String>,
     /// Right-aligned in markdown (numbers).
-    pub numeric: bool,
+    numeric: bool,
+}
+
+impl Column {
+    /// A column of both formats.
+    pub fn both(csv: &str, md: &str, numeric: bool) -> Column {
+        Column {
+            csv: Some(csv.to_owned()),
+            md: Some(md.to_owned()),
+            numeric,
+        }
+    }
+
+    /// A column of the CSV file only.
+    pub fn csv_only(csv: &str) -> Column {
+        Column {
+            csv: Some(csv.to_owned()),
+            md: None,
+            numeric: false,
+        }
+    }
+
+    /// A column of the markdown table only.
+    pub fn markdown_only(md: &str, numeric: bool) -> Column {
+        Column {
+            csv: None,
+            md: Some(md.to_owned()),
+            numeric,
+        }
+    }
 }
 
 /// Columns and rows; every row is as long as the columns.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Table {
     /// The columns, in order.
-    pub columns: Vec<Column>,
+    columns: Vec<Column>,
     /// The rows.
-    pub rows: Vec<Vec<Cell>>,
+    rows: Vec<Vec<Cell>>,
 }
 
 impl Table {
-    /// A table with `columns` given as `(csv name, markdown heading, numeric)`.
-    pub fn new(columns: &[(&'static str, &str, bool)]) -> Table {
+    /// A table with `columns` of both formats, given as `(csv name, markdown heading, numeric)`.
+    pub fn new(columns: &[(&str, &str, bool)]) -> Table {
+        let columns = columns.iter();
+        Table::with_columns(columns.map(|&(csv, md, numeric)| Column::both(csv, md, numeric)))
+    }
+
+    /// A table of `columns`.
+    pub fn with_columns(columns: impl IntoIterator<Item = Column>) -> Table {
         Table {
-            columns: columns
-                .iter()
-                .map(|&(csv, md, numeric)| Column {
-                    csv,
-                    md: md.to_owned(),
-                    numeric,
-                })
-                .collect(),
+            columns: columns.into_iter().collect(),
             rows: Vec::new(),
         }
     }
@@ -147,34 +180,68 @@ impl Table {
         self.rows.push(row);
     }
 
-    /// The CSV text (RFC 4180 quoting, `\n` line ends, a header row).
+    /// The CSV header fields, in order.
+    pub fn csv_header(&self) -> impl Iterator<Item = &str> {
+        self.columns.iter().filter_map(|c| c.csv.as_deref())
+    }
+
+    /// The CSV text (RFC 4180: fields quoted when they hold a comma, quote or line break; `\n`
+    /// line ends; a header row).
     pub fn csv(&self) -> String {
-        let line = |fields: Vec<&str>| {
-            let quoted: Vec<String> = fields.into_iter().map(quote).collect();
+        let line = |fields: &mut dyn Iterator<Item = &str>| {
+            let quoted: Vec<String> = fields.map(quote).collect();
             quoted.join(",") + "\n"
         };
-        let mut text = line(self.columns.iter().map(|c| c.csv).collect());
+        let mut text = line(&mut self.csv_header());
         for row in &self.rows {
-            text.push_str(&line(row.iter().map(|c| c.csv.as_str()).collect()));
+            let cells = self.columns.iter().zip(row);
+            let fields = cells.filter(|(c, _)| c.csv.is_some());
+            text.push_str(&line(&mut fields.map(|(_, cell)| cell.csv.as_str())));
         }
         text
     }
 
-    /// The markdown table.
+    /// Writes [`Table::csv`] to `path`.
+    pub fn write_csv(&self, path: &Path) -> Result<()> {
+        super::write_text(path, &self.csv())
+    }
+
+    /// The markdown table (`|` in a cell escaped).
     pub fn markdown(&self) -> String {
         let escape = |s: &str| s.replace('|', "\\|");
-        let headings: Vec<String> = self.columns.iter().map(|c| escape(&c.md)).collect();
-        let rule: Vec<&str> = self
+        let shown: Vec<(&String, usize)> = self
             .columns
             .iter()
-            .map(|c| if c.numeric { "---:" } else { "---" })
+            .enumerate()
+            .filter_map(|(i, c)| Some((c.md.as_ref()?, i)))
+            .collect();
+        let headings: Vec<String> = shown.iter().map(|(md, _)| escape(md)).collect();
+        let rule: Vec<&str> = shown
+            .iter()
+            .map(|&(_, i)| {
+                if self.columns[i].numeric {
+                    "---:"
+                } else {
+                    "---"
+                }
+            })
             .collect();
         let mut text = format!("| {} |\n|{}|\n", headings.join(" | "), rule.join("|"));
         for row in &self.rows {
-            let cells: Vec<String> = row.iter().map(|c| escape(&c.md)).collect();
+            let cells: Vec<String> = shown.iter().map(|&(_, i)| escape(&row[i].md)).collect();
             text.push_str(&format!("| {} |\n", cells.join(" | ")));
         }
         text
+    }
+}
+
+/// `field` as one CSV field: quoted (inner quotes doubled) when it holds a comma, a quote or a
+/// line break.
+fn quote(field: &str) -> String {
+    if field.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", field.replace('"', "\"\""))
+    } else {
+        field.to_owned()
     }
 }
 
@@ -203,6 +270,43 @@ mod tests {
         assert_eq!(
             table.markdown(),
             "| name | value (s) |\n|---|---:|\n| a,b\\|c | 1.50 |\n"
+        );
+    }
+
+    #[test]
+    fn fields_are_quoted_only_when_needed() {
+        assert_eq!(quote("stbn_64"), "stbn_64");
+        assert_eq!(quote("a,b"), "\"a,b\"");
+        assert_eq!(quote("say \"hi\""), "\"say \"\"hi\"\"\"");
+        let mut table = Table::with_columns(["mask", "value"].map(Column::csv_only));
+        table.push(vec![Cell::text("a,b"), Cell::fixed(0.5, 2)]);
+        assert_eq!(table.csv(), "mask,value\n\"a,b\",0.5\n");
+    }
+
+    #[test]
+    fn columns_of_one_format_are_left_out_of_the_other() {
+        let mut table = Table::with_columns([
+            Column::both("mask", "mask", false),
+            Column::markdown_only("size", false),
+            Column::csv_only("width"),
+            Column::csv_only("height"),
+            Column::both("seconds", "seconds", true),
+        ]);
+        table.push(vec![
+            Cell::text("a"),
+            Cell::text("4×2"),
+            Cell::int(4),
+            Cell::int(2),
+            Cell::opt_fixed(None, 2),
+        ]);
+        assert_eq!(
+            table.csv_header().collect::<Vec<_>>(),
+            ["mask", "width", "height", "seconds"]
+        );
+        assert_eq!(table.csv(), "mask,width,height,seconds\na,4,2,\n");
+        assert_eq!(
+            table.markdown(),
+            "| mask | size | seconds |\n|---|---|---:|\n| a | 4×2 | n/a |\n"
         );
     }
 }
