@@ -1,5 +1,5 @@
-//! Issue 6's scale checks: one thread against two (time and identical output), and the largest
-//! masks against their time targets, with memory.
+//! The scale checks: one thread against two (time and identical output), and the largest masks
+//! against their time targets, with memory.
 
 use stbn_gen::{MaskSpec, SampleSpace, VectorSpec};
 
@@ -100,7 +100,8 @@ fn verdict(name: &str, t1: &Timing, t2: &Timing, identical: bool) -> String {
     )
 }
 
-/// The scalar and Vec2 masks of the issue's scale targets: time, peak memory and the estimate.
+/// The largest scalar and Vec2 masks against their time targets: time, peak memory and the
+/// estimate.
 pub fn scale(plan: &Plan) -> Result<Section> {
     let mut table = Table::new(&[
         ("mask", "mask", false),
@@ -157,7 +158,7 @@ pub fn scale(plan: &Plan) -> Result<Section> {
         knob: Knob::Scale,
         title: "7. Scale targets".to_owned(),
         method: format!(
-            "Issue 6: scalar 256×256×128 in ≤ 30 s and vector 256×256×64 in ≤ 5 min (release, \
+            "Targets: scalar 256×256×128 in ≤ 30 s and vector 256×256×64 in ≤ 5 min (release, \
              two cores), memory reported. One run each, seed {}, default settings (Vec2 at the \
              default {} swaps per pixel), on the global rayon pool (all cores).{note}",
             plan.seed,
