@@ -45,9 +45,11 @@ pub struct MaskSpec {
     pub depth: u32,
     /// Seed of the initial pattern and of the tie-break order.
     pub seed: u64,
-    /// Gaussian σ over x and y, in pixels; finite, `> 0`. The paper uses 1.9.
+    /// Gaussian σ over x and y, in pixels; finite, at least [`MaskSpec::MIN_SIGMA`]. The paper
+    /// uses 1.9.
     pub sigma_xy: f64,
-    /// Gaussian σ over frames, in frames; finite, `> 0`. The paper uses 1.9.
+    /// Gaussian σ over frames, in frames; finite, at least [`MaskSpec::MIN_SIGMA`]. The paper
+    /// uses 1.9.
     pub sigma_z: f64,
     /// Fraction of pixels turned on in the initial binary pattern, in `(0, 0.5]`. The paper uses 0.1.
     pub initial_density: f64,
@@ -67,6 +69,10 @@ impl MaskSpec {
     pub const DEFAULT_DENSITY: f64 = 0.1;
     /// Default kernel truncation tolerance.
     pub const DEFAULT_KERNEL_TOLERANCE: f64 = 5e-3;
+    /// Smallest σ accepted on either axis. Below about 7.5e-155, `1/σ²` overflows and the kernel
+    /// loses its centre tap, without which void-and-cluster never settles; every σ below about
+    /// 0.3 pixels gives the same kernel anyway (the pixel alone, at the default tolerance).
+    pub const MIN_SIGMA: f64 = 1e-150;
     /// Largest extent of one axis.
     pub const MAX_AXIS: u32 = 1 << 16;
     /// Largest number of pixels of one slice: ranks within a slice stay exactly representable as
@@ -144,6 +150,9 @@ impl MaskSpec {
             if !(value.is_finite() && value > 0.0) {
                 return Err(SpecError::InvalidSigma { field, value });
             }
+            if value < Self::MIN_SIGMA {
+                return Err(SpecError::SigmaTooSmall { field, value });
+            }
         }
         if !(self.initial_density > 0.0 && self.initial_density <= 0.5) {
             return Err(SpecError::InvalidDensity(self.initial_density));
@@ -183,6 +192,13 @@ pub enum SpecError {
         /// The value given.
         value: f64,
     },
+    /// σ is positive but below [`MaskSpec::MIN_SIGMA`].
+    SigmaTooSmall {
+        /// The field's name.
+        field: &'static str,
+        /// The value given.
+        value: f64,
+    },
     /// The initial density is outside `(0, 0.5]`.
     InvalidDensity(f64),
     /// The kernel tolerance is outside `(0, 1)`.
@@ -214,6 +230,12 @@ impl fmt::Display for SpecError {
             SpecError::InvalidSigma { field, value } => {
                 write!(f, "`{field}` is {value}; it must be finite and > 0")
             }
+            SpecError::SigmaTooSmall { field, value } => write!(
+                f,
+                "`{field}` is {value:e}; it must be at least {:e} (1/σ² must be finite for the \
+                 kernel to keep its centre pixel)",
+                MaskSpec::MIN_SIGMA
+            ),
             SpecError::InvalidDensity(value) => {
                 write!(f, "`density` is {value}; it must be in (0, 0.5]")
             }
@@ -234,6 +256,14 @@ mod tests {
     fn defaults_are_valid() {
         assert_eq!(MaskSpec::new(64, 64, 32, 1).validate(), Ok(()));
         assert_eq!(MaskSpec::new(1, 1, 1, 1).validate(), Ok(()));
+    }
+
+    /// Every σ the validation accepts keeps `1/σ²` finite, so the kernel has its centre tap.
+    #[test]
+    fn the_smallest_sigma_keeps_the_kernel_finite() {
+        let spec = MaskSpec::new(8, 8, 4, 0).with_sigma(MaskSpec::MIN_SIGMA);
+        assert_eq!(spec.validate(), Ok(()));
+        assert!((1.0 / (MaskSpec::MIN_SIGMA * MaskSpec::MIN_SIGMA)).is_finite());
     }
 
     #[test]
@@ -273,6 +303,20 @@ mod tests {
             (
                 MaskSpec {
                     sigma_z: -1.0,
+                    ..base.clone()
+                },
+                "`sigma_z`",
+            ),
+            (
+                MaskSpec {
+                    sigma_xy: 1e-200,
+                    ..base.clone()
+                },
+                "`sigma_xy` is 1e-200; it must be at least 1e-150",
+            ),
+            (
+                MaskSpec {
+                    sigma_z: 5e-324,
                     ..base.clone()
                 },
                 "`sigma_z`",
