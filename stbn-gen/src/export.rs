@@ -13,10 +13,67 @@
 use std::collections::BTreeMap;
 use std::fmt;
 use std::fs::{self, File};
-use std::io::{BufReader, BufWriter};
+use std::io::{self, BufReader, Read as _};
 use std::path::{Path, PathBuf};
 
+use crate::MaskSpec;
 use crate::analysis::Field;
+
+/// Opens `path` for reading if it is a regular file (after following symbolic links). A FIFO,
+/// device, socket or folder is refused without reading from it; on Unix the file is opened
+/// non-blocking, so a FIFO without a writer cannot stall the open either.
+///
+/// # Errors
+/// The open's error, or [`io::ErrorKind::InvalidInput`] for anything but a regular file. The
+/// message does not name the path: callers add it.
+pub fn open_regular_file(path: &Path) -> io::Result<File> {
+    let mut options = fs::OpenOptions::new();
+    options.read(true);
+    #[cfg(unix)]
+    std::os::unix::fs::OpenOptionsExt::custom_flags(&mut options, libc::O_NONBLOCK);
+    let file = options.open(path)?;
+    let kind = file.metadata()?.file_type();
+    if kind.is_file() {
+        Ok(file)
+    } else {
+        let what = if kind.is_dir() {
+            "a folder"
+        } else {
+            "a FIFO, device or socket"
+        };
+        Err(io::Error::new(
+            io::ErrorKind::InvalidInput,
+            format!("is {what}, not a regular file"),
+        ))
+    }
+}
+
+/// Reads the whole regular file at `path` (see [`open_regular_file`]) in one pass, if it holds at
+/// most `max_bytes` bytes: the size is checked before anything is read, and again while reading
+/// (a file that grows is cut off at the limit and refused).
+///
+/// # Errors
+/// As [`open_regular_file`]; a read error; [`io::ErrorKind::InvalidData`] for a file over the
+/// limit. The message does not name the path.
+pub fn read_regular_file(path: &Path, max_bytes: u64) -> io::Result<Vec<u8>> {
+    let file = open_regular_file(path)?;
+    let too_large = |len: u64| {
+        io::Error::new(
+            io::ErrorKind::InvalidData,
+            format!("is {len} bytes, over the limit of {max_bytes} bytes"),
+        )
+    };
+    let len = file.metadata()?.len();
+    if len > max_bytes {
+        return Err(too_large(len));
+    }
+    let mut bytes = Vec::with_capacity(len as usize);
+    file.take(max_bytes + 1).read_to_end(&mut bytes)?;
+    if bytes.len() as u64 > max_bytes {
+        return Err(too_large(bytes.len() as u64));
+    }
+    Ok(bytes)
+}
 
 /// Bits per PNG sample.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -123,8 +180,10 @@ pub fn write_slices_png(
         };
         let write_error =
             |e: &dyn fmt::Display| ExportError::new(&path, format!("cannot write: {e}"));
-        let file = File::create(&path).map_err(|e| write_error(&e))?;
-        let mut encoder = png::Encoder::new(BufWriter::new(file), png_width, png_height);
+        // Encoded in memory and written with one call whose every error is reported (a buffered
+        // file would drop the error of its last flush, leaving a short file on a full disk).
+        let mut encoded = Vec::new();
+        let mut encoder = png::Encoder::new(&mut encoded, png_width, png_height);
         encoder.set_color(png::ColorType::Grayscale);
         encoder.set_depth(depth.png());
         let mut writer = encoder.write_header().map_err(|e| write_error(&e))?;
@@ -132,6 +191,7 @@ pub fn write_slices_png(
             .write_image_data(&data)
             .map_err(|e| write_error(&e))?;
         writer.finish().map_err(|e| write_error(&e))?;
+        fs::write(&path, encoded).map_err(|e| write_error(&e))?;
     }
     Ok(folder)
 }
@@ -145,9 +205,24 @@ pub struct SliceStack {
     depth: usize,
     bit_depth: PngDepth,
     values: Vec<f64>,
+    colour_slice: Option<usize>,
+    constant_slices: usize,
 }
 
 impl SliceStack {
+    /// The first slice whose green or blue channel differs from its red one somewhere: only red
+    /// is read, so such a mask is not what was analysed. `None` for gray images and colour images
+    /// that repeat one value in every channel.
+    pub fn colour_slice(&self) -> Option<usize> {
+        self.colour_slice
+    }
+
+    /// How many slices hold a single value in every pixel (a constant slice measures as perfectly
+    /// uniform and says nothing about the mask).
+    pub fn constant_slices(&self) -> usize {
+        self.constant_slices
+    }
+
     /// The `<name>` of the `<name>_<z>.png` files.
     pub fn name(&self) -> &str {
         &self.name
@@ -171,8 +246,15 @@ impl SliceStack {
 /// one common `<name>` and decimal `z`, the `z` must be consecutive (any start; `_0` … is what
 /// [`write_slices_png`] writes), and every slice must have the same size and bit depth. Grayscale,
 /// gray-alpha, RGB, RGBA and palette images are accepted; the value is the gray (or red) channel —
-/// scalar masks distributed as colour images repeat the value in every channel. Errors name the
-/// offending file (or the folder, for a missing slice).
+/// scalar masks distributed as colour images repeat the value in every channel
+/// ([`SliceStack::colour_slice`] finds those that do not). Errors name the offending file (or the
+/// folder, for a missing slice).
+///
+/// Memory is bounded before it is allocated: a slice whose header declares more than
+/// [`MaskSpec::MAX_SLICE_PIXELS`] pixels (at most 128 MiB decoded, 16-bit RGBA) is refused before
+/// its pixels are decoded, and so is a folder whose slices hold more than
+/// [`MaskSpec::MAX_PIXELS`] pixels in all (512 MiB of values). Only regular files are read
+/// ([`open_regular_file`]).
 pub fn read_slices_png(dir: &Path) -> Result<SliceStack, ExportError> {
     let mut slices = Vec::new();
     for path in list_pngs(dir)? {
@@ -224,11 +306,35 @@ pub fn read_slices_png(dir: &Path) -> Result<SliceStack, ExportError> {
 
     let mut values = Vec::new();
     let mut shape = None;
-    for slice in &slices {
-        let image = decode(&slice.path)?;
+    let (mut colour_slice, mut constant_slices) = (None, 0);
+    // Checked against each slice's header before its pixels are decoded.
+    let within_limit = |width: u32, height: u32| {
+        let pixels = slices.len() as u64 * u64::from(width) * u64::from(height);
+        if pixels > MaskSpec::MAX_PIXELS {
+            return Err(ExportError::new(
+                dir,
+                format!(
+                    "holds {} slices of {width}x{height}: {pixels} pixels, over the limit of {} \
+                     pixels a mask may have",
+                    slices.len(),
+                    MaskSpec::MAX_PIXELS
+                ),
+            ));
+        }
+        Ok(())
+    };
+    for (z, slice) in slices.iter().enumerate() {
+        let image = decode(&slice.path, &within_limit)?;
         let this = (image.width, image.height, image.depth);
+        if image.colour {
+            colour_slice = colour_slice.or(Some(z));
+        }
+        constant_slices += usize::from(image.constant);
         match shape {
-            None => shape = Some(this),
+            None => {
+                values.reserve_exact(slices.len() * image.width * image.height);
+                shape = Some(this);
+            }
             Some(expected) if expected != this => {
                 let (w, h, b) = expected;
                 return Err(ExportError::new(
@@ -255,6 +361,8 @@ pub fn read_slices_png(dir: &Path) -> Result<SliceStack, ExportError> {
         depth: slices.len(),
         bit_depth,
         values,
+        colour_slice,
+        constant_slices,
     })
 }
 
@@ -296,14 +404,36 @@ struct Image {
     height: usize,
     depth: PngDepth,
     values: Vec<f64>,
+    /// Green or blue differ from red somewhere.
+    colour: bool,
+    /// Every value is the same.
+    constant: bool,
 }
 
-fn decode(path: &Path) -> Result<Image, ExportError> {
+/// Decodes the slice at `path`; `within_limit(width, height)` may refuse its declared size before
+/// the pixels are decoded.
+fn decode(
+    path: &Path,
+    within_limit: &dyn Fn(u32, u32) -> Result<(), ExportError>,
+) -> Result<Image, ExportError> {
     let read_error = |e: &dyn fmt::Display| ExportError::new(path, format!("cannot read: {e}"));
-    let file = File::open(path).map_err(|e| read_error(&e))?;
+    let file = open_regular_file(path).map_err(|e| read_error(&e))?;
     let mut decoder = png::Decoder::new(BufReader::new(file));
     decoder.set_transformations(png::Transformations::EXPAND);
     let mut reader = decoder.read_info().map_err(|e| read_error(&e))?;
+    let (declared_width, declared_height) = reader.info().size();
+    let declared = u64::from(declared_width) * u64::from(declared_height);
+    if declared > MaskSpec::MAX_SLICE_PIXELS {
+        return Err(ExportError::new(
+            path,
+            format!(
+                "declares {declared_width}x{declared_height} pixels, over the limit of {} pixels \
+                 per slice",
+                MaskSpec::MAX_SLICE_PIXELS
+            ),
+        ));
+    }
+    within_limit(declared_width, declared_height)?;
     let size = reader
         .output_buffer_size()
         .ok_or_else(|| read_error(&"the image does not fit in memory"))?;
@@ -318,20 +448,27 @@ fn decode(path: &Path) -> Result<Image, ExportError> {
     };
     let bytes = depth.bits() as usize / 8;
     let mut values = Vec::with_capacity(width * height);
+    let mut colour = false;
     for row in buffer.chunks_exact(info.line_size).take(height) {
-        values.extend(row.chunks_exact(channels * bytes).take(width).map(|pixel| {
-            let sample = match depth {
-                PngDepth::Eight => f64::from(pixel[0]),
-                PngDepth::Sixteen => f64::from(u16::from_be_bytes([pixel[0], pixel[1]])),
+        for pixel in row.chunks_exact(channels * bytes).take(width) {
+            // Channel `c`'s sample (big-endian at 16 bits).
+            let sample = |c: usize| match depth {
+                PngDepth::Eight => u16::from(pixel[c]),
+                PngDepth::Sixteen => u16::from_be_bytes([pixel[2 * c], pixel[2 * c + 1]]),
             };
-            (sample + 0.5) / depth.levels()
-        }));
+            // RGB and RGBA: the colour channels are 1 and 2 (gray + alpha has no colour).
+            colour |= channels >= 3 && (sample(1) != sample(0) || sample(2) != sample(0));
+            values.push((f64::from(sample(0)) + 0.5) / depth.levels());
+        }
     }
+    let constant = values.windows(2).all(|pair| pair[0] == pair[1]);
     Ok(Image {
         width,
         height,
         depth,
         values,
+        colour,
+        constant,
     })
 }
 
@@ -439,7 +576,7 @@ mod tests {
     fn reads_the_red_channel_of_colour_images() {
         let dir = tempfile::tempdir().unwrap();
         let file = File::create(dir.path().join("rgb_0.png")).unwrap();
-        let mut encoder = png::Encoder::new(BufWriter::new(file), 2, 1);
+        let mut encoder = png::Encoder::new(std::io::BufWriter::new(file), 2, 1);
         encoder.set_color(png::ColorType::Rgba);
         let mut writer = encoder.write_header().unwrap();
         writer
@@ -448,6 +585,104 @@ mod tests {
         writer.finish().unwrap();
         let read = read_slices_png(dir.path()).unwrap();
         assert_eq!(read.field().values(), [10.5 / 256.0, 200.5 / 256.0]);
+        assert_eq!(read.colour_slice(), Some(0));
+        assert_eq!(read.constant_slices(), 0);
+    }
+
+    #[test]
+    fn gray_slices_have_no_colour_and_constant_slices_are_counted() {
+        let dir = tempfile::tempdir().unwrap();
+        let values = [0.5; 8];
+        let field = Field::new(2, 2, 2, &values).unwrap();
+        let folder = write_slices_png(&field, dir.path(), "flat", PngDepth::Eight).unwrap();
+        let read = read_slices_png(&folder).unwrap();
+        assert_eq!((read.colour_slice(), read.constant_slices()), (None, 2));
+        let folder = write(dir.path(), "ramp", 4, 4, 3, PngDepth::Sixteen);
+        let read = read_slices_png(&folder).unwrap();
+        assert_eq!((read.colour_slice(), read.constant_slices()), (None, 0));
+    }
+
+    /// A PNG of `width × height` RGBA16 whose header is valid and whose image data is an empty
+    /// zlib stream: a few dozen bytes that claim gigabytes.
+    fn header_only_png(width: u32, height: u32) -> Vec<u8> {
+        let mut ihdr = width.to_be_bytes().to_vec();
+        ihdr.extend(height.to_be_bytes());
+        ihdr.extend([16, 6, 0, 0, 0]);
+        let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+        for (kind, data) in [
+            (b"IHDR", ihdr),
+            (b"IDAT", vec![0x78, 0x9c, 0x03, 0, 0, 0, 0, 1]),
+            (b"IEND", Vec::new()),
+        ] {
+            let mut chunk = kind.to_vec();
+            chunk.extend(&data);
+            png.extend((data.len() as u32).to_be_bytes());
+            png.extend(&chunk);
+            png.extend(crc32(&chunk).to_be_bytes());
+        }
+        png
+    }
+
+    /// CRC-32 (ISO-HDLC) as PNG chunks use it.
+    fn crc32(bytes: &[u8]) -> u32 {
+        let mut crc = !0u32;
+        for &b in bytes {
+            crc ^= u32::from(b);
+            for _ in 0..8 {
+                crc = if crc & 1 == 1 {
+                    (crc >> 1) ^ 0xEDB8_8320
+                } else {
+                    crc >> 1
+                };
+            }
+        }
+        !crc
+    }
+
+    #[test]
+    fn a_header_declaring_a_huge_slice_is_refused_before_decoding() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("huge_0.png");
+        fs::write(&path, header_only_png(65535, 65535)).unwrap();
+        assert!(fs::metadata(&path).unwrap().len() < 100);
+        let message = read_slices_png(dir.path()).unwrap_err().to_string();
+        assert!(
+            message.contains("huge_0.png: declares 65535x65535 pixels, over the limit of 16777216"),
+            "{message}"
+        );
+        // Within the slice limit, but more slices than a mask may hold in all.
+        let dir = tempfile::tempdir().unwrap();
+        for z in 0..5 {
+            fs::write(
+                dir.path().join(format!("tall_{z}.png")),
+                header_only_png(4096, 4096),
+            )
+            .unwrap();
+        }
+        let message = read_slices_png(dir.path()).unwrap_err().to_string();
+        assert!(message.contains("holds 5 slices of 4096x4096"), "{message}");
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn only_regular_files_are_read() {
+        let dir = tempfile::tempdir().unwrap();
+        let fifo = dir.path().join("pipe_0.png");
+        let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+        assert!(made.unwrap().success());
+        let message = read_slices_png(dir.path()).unwrap_err().to_string();
+        assert!(message.contains("pipe_0.png"), "{message}");
+        assert!(message.contains("not a regular file"), "{message}");
+        let error = read_regular_file(dir.path(), 10).unwrap_err();
+        assert!(error.to_string().contains("a folder"), "{error}");
+        let file = dir.path().join("eleven");
+        fs::write(&file, b"eleven byte").unwrap();
+        assert_eq!(read_regular_file(&file, 11).unwrap(), b"eleven byte");
+        let error = read_regular_file(&file, 10).unwrap_err();
+        assert!(
+            error.to_string().contains("over the limit of 10"),
+            "{error}"
+        );
     }
 
     /// The error of reading `dir` after `damage`, checked to name `culprit`.

@@ -30,8 +30,7 @@
 
 use std::f64::consts::{PI, TAU};
 use std::fmt;
-use std::fs::File;
-use std::io::BufReader;
+use std::io::Cursor;
 use std::path::{Path, PathBuf};
 
 use image::{DynamicImage, ImageDecoder, ImageFormat, ImageReader};
@@ -72,32 +71,41 @@ impl ImagePdf {
         Self::build(None, width, height, luminance)
     }
 
+    /// Largest image file accepted, in bytes (320 MiB): a 16-bit RGBA PNG of
+    /// [`ImagePdf::MAX_PIXELS`] pixels stored uncompressed, with room for its framing. Checked
+    /// before the file is read.
+    pub const MAX_FILE_BYTES: u64 = 320 << 20;
+
     /// Reads a `.png` or Radiance `.hdr` file (chosen by the extension, case-insensitive) and
-    /// takes its luminance ([module docs](self)).
+    /// takes its luminance ([module docs](self)): [`ImagePdf::read_file`], then
+    /// [`ImagePdf::decode`].
     ///
-    /// Errors name the file: it cannot be opened or decoded, its extension is neither, it is
-    /// larger than [`ImagePdf::MAX_PIXELS`] (checked before decoding the pixels), or its
+    /// Errors name the file: it cannot be opened or decoded, its extension is neither, it is not
+    /// a regular file or is larger than [`ImagePdf::MAX_FILE_BYTES`] (checked before reading), it
+    /// is larger than [`ImagePdf::MAX_PIXELS`] (checked before decoding the pixels), or its
     /// luminance is invalid as in [`ImagePdf::from_luminance`].
     pub fn load(path: &Path) -> Result<ImagePdf, ImageError> {
-        let owned = || path.to_path_buf();
-        let extension = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .map(str::to_ascii_lowercase);
-        let format = match extension.as_deref() {
-            Some("png") => ImageFormat::Png,
-            Some("hdr") => ImageFormat::Hdr,
-            _ => {
-                return Err(ImageError::UnsupportedFormat {
-                    path: owned(),
-                    detail: "the file name must end in .png or .hdr".to_string(),
-                });
+        format_of(path)?;
+        Self::decode(path, &Self::read_file(path)?)
+    }
+
+    /// The bytes of the image file at `path`, read once: only a regular file (not a FIFO, device
+    /// or folder) of at most [`ImagePdf::MAX_FILE_BYTES`] bytes, checked before reading.
+    pub fn read_file(path: &Path) -> Result<Vec<u8>, ImageError> {
+        crate::export::read_regular_file(path, Self::MAX_FILE_BYTES).map_err(|e| {
+            ImageError::Unreadable {
+                path: path.to_path_buf(),
+                message: e.to_string(),
             }
-        };
-        let file = File::open(path).map_err(|e| ImageError::Unreadable {
-            path: owned(),
-            message: e.to_string(),
-        })?;
+        })
+    }
+
+    /// The pdf of the image file `path` whose contents are `bytes` (from
+    /// [`ImagePdf::read_file`]); the extension picks the format, and errors name `path`, as in
+    /// [`ImagePdf::load`].
+    pub fn decode(path: &Path, bytes: &[u8]) -> Result<ImagePdf, ImageError> {
+        let owned = || path.to_path_buf();
+        let format = format_of(path)?;
         let decode_error = |e: image::ImageError| match e {
             image::ImageError::Unsupported(detail) => ImageError::UnsupportedFormat {
                 path: owned(),
@@ -108,7 +116,7 @@ impl ImagePdf {
                 message: other.to_string(),
             },
         };
-        let decoder = ImageReader::with_format(BufReader::new(file), format)
+        let decoder = ImageReader::with_format(Cursor::new(bytes), format)
             .into_decoder()
             .map_err(decode_error)?;
         let (width, height) = decoder.dimensions();
@@ -353,6 +361,22 @@ fn srgb_to_linear(c: f32) -> f32 {
         c / 12.92
     } else {
         ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// The format of `path`, from its extension: `.png` or `.hdr` (any case).
+fn format_of(path: &Path) -> Result<ImageFormat, ImageError> {
+    let extension = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    match extension.as_deref() {
+        Some("png") => Ok(ImageFormat::Png),
+        Some("hdr") => Ok(ImageFormat::Hdr),
+        _ => Err(ImageError::UnsupportedFormat {
+            path: path.to_path_buf(),
+            detail: "the file name must end in .png or .hdr".to_string(),
+        }),
     }
 }
 
