@@ -579,3 +579,169 @@ fn filter_adapted_fields_are_checked_and_named() {
         );
     }
 }
+
+#[test]
+fn a_byte_order_mark_is_skipped_and_positions_stay_as_an_editor_shows_them() {
+    let text = format!("\u{feff}{}", edit(16, "            density: 0.7,"));
+    let err = error(&text);
+    assert_eq!((err.line(), err.column()), (16, 22), "{err}");
+    assert_eq!(
+        Manifest::parse(&format!("\u{feff}{BASE}"), "a.ron")
+            .unwrap()
+            .masks()
+            .len(),
+        2
+    );
+}
+
+#[test]
+fn a_fractional_integer_says_an_integer_is_expected() {
+    let err = error(&edit(15, "            seed: 1.5,"));
+    assert_eq!((err.line(), err.field()), (15, Some("seed")), "{err}");
+    assert_eq!(
+        err.message(),
+        "expected an integer (this field takes whole numbers), found `1.5`"
+    );
+    let err = error(&edit(14, "            size: (16, 16.0, 8),"));
+    assert_eq!(err.field(), Some("size"), "{err}");
+    assert!(err.message().starts_with("expected an integer"), "{err}");
+}
+
+#[test]
+fn sigma_whose_kernel_would_lose_its_centre_is_refused_with_the_smallest_that_works() {
+    for (kind, field) in [
+        ("Scalar", "sigma"),
+        ("Blue2D", "sigma"),
+        ("GoldenRatio2D", "sigma"),
+        ("Blue3D", "sigma_time"),
+    ] {
+        let text = format!(
+            "(masks: [(name: \"m\", kind: {kind}, size: (8, 8, 4), seed: 1, {field}: 1e-200, \
+             encoding: Unorm8)])"
+        );
+        let err = error(&text);
+        assert_eq!(err.field(), Some(field), "{kind}: {err}");
+        assert!(
+            err.message()
+                .starts_with("must be at least 1e-150 (got 1e-200)"),
+            "{kind}: {err}"
+        );
+    }
+}
+
+#[test]
+fn long_names_are_refused_with_the_limit() {
+    let long = "n".repeat(Manifest::MAX_NAME_LEN + 1);
+    let text = format!(
+        "(masks: [(name: \"{long}\", kind: Scalar, size: (8, 8, 4), seed: 1, encoding: Unorm8)])"
+    );
+    let err = error(&text);
+    assert_eq!(err.field(), Some("name"));
+    assert!(
+        err.message().contains("129 characters long; at most 128"),
+        "{err}"
+    );
+    let fits = text.replace(&long, &"n".repeat(Manifest::MAX_NAME_LEN));
+    assert!(Manifest::parse(&fits, "a.ron").is_ok());
+}
+
+#[test]
+fn too_many_masks_are_refused_at_the_first_one_over_the_limit() {
+    let mask = |i: usize| {
+        format!("(name: \"m{i}\", kind: White, size: (1, 1, 1), seed: 1, encoding: Unorm8),\n")
+    };
+    let all: String = (0..=Manifest::MAX_MASKS).map(mask).collect();
+    let err = error(&format!("(masks: [\n{all}])"));
+    assert_eq!(err.line(), Manifest::MAX_MASKS + 2, "{err}");
+    assert_eq!(err.mask_index(), Some(Manifest::MAX_MASKS));
+    assert!(
+        err.message().contains("declares 1025 masks; at most 1024"),
+        "{err}"
+    );
+    let limit: String = (0..Manifest::MAX_MASKS).map(mask).collect();
+    let manifest = Manifest::parse(&format!("(masks: [\n{limit}])"), "a.ron").unwrap();
+    assert_eq!(manifest.masks().len(), Manifest::MAX_MASKS);
+}
+
+#[test]
+fn the_missing_image_message_reads_as_one_sentence() {
+    let err = error(
+        "(masks: [(name: \"m\", kind: ImagePoints, size: (8, 8, 4), seed: 1, encoding: Unorm8)])",
+    );
+    assert_eq!(
+        err.message(),
+        "missing: ImagePoints masks are importance-sampled from an image; add \
+         `image: \"path/to/file.hdr\"` (PNG or Radiance .hdr, relative to the manifest)"
+    );
+}
+
+#[test]
+fn name_errors_point_at_the_name() {
+    let manifest = Manifest::parse(BASE, "assets.ron").unwrap();
+    let err = manifest.name_error(1, "is reserved");
+    assert_eq!(
+        err.to_string(),
+        "assets.ron:11:19: mask \"foo\", field `name`: is reserved"
+    );
+}
+
+/// Runs `load` on a thread and fails if it has not returned within 20 s.
+#[cfg(unix)]
+fn load_within_deadline(path: std::path::PathBuf) -> Result<Manifest, Error> {
+    let (send, receive) = std::sync::mpsc::channel();
+    std::thread::spawn(move || send.send(Manifest::load(&path)));
+    receive
+        .recv_timeout(std::time::Duration::from_secs(20))
+        .expect("Manifest::load returned within 20 s")
+}
+
+#[cfg(unix)]
+#[test]
+fn fifos_and_devices_are_refused_without_reading_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let fifo = dir.path().join("assets.ron");
+    assert!(
+        std::process::Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .unwrap()
+            .success()
+    );
+    let err = load_within_deadline(fifo.clone()).unwrap_err().to_string();
+    assert!(err.contains("not a regular file"), "{err}");
+    assert!(err.contains(&fifo.display().to_string()), "{err}");
+
+    // An image that is a FIFO, or a link to an endless device.
+    let sky = dir.path().join("sky.hdr");
+    std::os::unix::fs::symlink("/dev/zero", &sky).unwrap();
+    let pipe = dir.path().join("pipe.png");
+    std::fs::rename(&fifo, &pipe).unwrap();
+    for image in ["sky.hdr", "pipe.png"] {
+        let path = image_manifest(
+            dir.path(),
+            &format!(
+                "name: \"m\", kind: ImagePoints, size: (8, 8, 4), seed: 1, image: \"{image}\", \
+                 encoding: Unorm8"
+            ),
+        );
+        let Err(Error::Manifest(err)) = load_within_deadline(path) else {
+            panic!("{image}: expected a manifest error");
+        };
+        assert_eq!(err.field(), Some("image"));
+        assert!(err.message().contains("not a regular file"), "{err}");
+        assert!(err.message().contains(image), "{err}");
+    }
+}
+
+#[test]
+fn a_manifest_that_is_not_utf8_names_the_offset() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("assets.ron");
+    std::fs::write(&path, b"(masks: [\xff])").unwrap();
+    let err = Manifest::load(&path).unwrap_err().to_string();
+    assert!(
+        err.contains("not UTF-8 text (invalid byte at offset 9)"),
+        "{err}"
+    );
+    assert!(err.contains("assets.ron"), "{err}");
+}

@@ -352,28 +352,75 @@ impl MaskEntry {
 pub struct Manifest {
     path: PathBuf,
     masks: Vec<MaskEntry>,
+    /// Where each mask's `name` value starts.
+    name_positions: Vec<Pos>,
 }
 
 impl Manifest {
+    /// Largest manifest file [`load`](Self::load) reads, in bytes (16 MiB); checked before
+    /// reading.
+    pub const MAX_FILE_BYTES: u64 = 16 << 20;
+
+    /// Most masks one manifest may declare. Each becomes a static and a cache entry, and
+    /// `stbn-gen generate` keeps a few kilobytes of figures per mask for its report.
+    pub const MAX_MASKS: usize = 1024;
+
+    /// Longest mask name, in characters (ASCII). Every file named after a mask stays within the
+    /// 255-byte file-name limit of common file systems: `<name>_<frame>.png` (frames up to
+    /// 65536), `<name>_trace.csv`, `<name>.stbn` and the report's `<index>_<name>_xy.png`.
+    pub const MAX_NAME_LEN: usize = 128;
+
     /// Reads and parses the manifest at `path`.
     ///
+    /// Only a regular file of at most [`Manifest::MAX_FILE_BYTES`] bytes is read (a FIFO or
+    /// device is refused before reading), in one read.
+    ///
     /// # Errors
-    /// [`Error::Io`] if the file cannot be read, [`Error::Manifest`] as for
-    /// [`parse`](Self::parse).
+    /// [`Error::Io`] if the file cannot be read, is not a regular file, is too large or is not
+    /// UTF-8; [`Error::Manifest`] as for [`parse`](Self::parse).
     pub fn load(path: impl AsRef<Path>) -> Result<Manifest, Error> {
         let path = path.as_ref();
-        let text =
-            std::fs::read_to_string(path).map_err(|e| Error::io("read the manifest", path, e))?;
+        let read_error = |e| Error::io("read the manifest", path, e);
+        let bytes =
+            stbn_gen::export::read_regular_file(path, Self::MAX_FILE_BYTES).map_err(read_error)?;
+        let text = String::from_utf8(bytes).map_err(|e| {
+            let at = e.utf8_error().valid_up_to();
+            read_error(std::io::Error::new(
+                std::io::ErrorKind::InvalidData,
+                format!("it is not UTF-8 text (invalid byte at offset {at})"),
+            ))
+        })?;
         Ok(Manifest::parse(&text, path)?)
+    }
+
+    /// An error about mask `index`'s `name`, located where the name is written: for checks that
+    /// a user of the manifest adds (names a tool reserves, say).
+    ///
+    /// # Panics
+    /// If `index` is not a mask of the manifest.
+    pub fn name_error(&self, index: usize, message: impl Into<String>) -> ManifestError {
+        let pos = self.name_positions[index];
+        ManifestError {
+            path: self.path.clone().into(),
+            line: pos.line,
+            column: pos.col,
+            mask_index: Some(index),
+            mask_name: Some(self.masks[index].name.clone()),
+            field: Some("name".to_owned()),
+            message: message.into(),
+        }
     }
 
     /// Parses and validates manifest `text`; `path` is only used in error messages.
     ///
     /// # Errors
     /// The first problem in document order: a syntax or type error, an unknown or missing field,
-    /// a name that is not an ASCII Rust identifier (or is a keyword), a name that duplicates an
-    /// earlier one (compared in upper case), or a value out of range.
+    /// more than [`Manifest::MAX_MASKS`] masks, a name that is not an ASCII Rust identifier (or
+    /// is a keyword, or is longer than [`Manifest::MAX_NAME_LEN`]), a name that duplicates an
+    /// earlier one (compared in upper case), or a value out of range. A leading UTF-8 byte-order
+    /// mark is skipped (lines and columns count as an editor shows them, without it).
     pub fn parse(text: &str, path: impl AsRef<Path>) -> Result<Manifest, ManifestError> {
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let source = Source {
             text,
             path: path.as_ref(),
@@ -383,6 +430,29 @@ impl Manifest {
             .with_default_extension(Extensions::IMPLICIT_SOME)
             .from_str(text)
             .map_err(|e| source.ron_error(&e))?;
+        if raw.masks.len() > Self::MAX_MASKS {
+            let pos = source.map.masks.get(Self::MAX_MASKS).map_or(
+                Pos {
+                    offset: 0,
+                    line: 1,
+                    col: 1,
+                },
+                |m| m.start,
+            );
+            return Err(ManifestError {
+                path: source.path.into(),
+                line: pos.line,
+                column: pos.col,
+                mask_index: Some(Self::MAX_MASKS),
+                mask_name: raw.masks[Self::MAX_MASKS].name.clone().into(),
+                field: None,
+                message: format!(
+                    "the manifest declares {} masks; at most {} are allowed (split it)",
+                    raw.masks.len(),
+                    Self::MAX_MASKS
+                ),
+            });
+        }
         let mut masks = Vec::with_capacity(raw.masks.len());
         let mut statics: HashMap<String, usize> = HashMap::new();
         let base_dir = path.as_ref().parent().unwrap_or(Path::new(""));
@@ -411,7 +481,9 @@ impl Manifest {
                     return Err(field_error(
                         "image",
                         format!(
-                            "missing: {:?} masks are importance-sampled from an image; add                              `image: \"path/to/file.hdr\"` (PNG or Radiance .hdr, relative to                              the manifest)",
+                            "missing: {:?} masks are importance-sampled from an image; add \
+                             `image: \"path/to/file.hdr\"` (PNG or Radiance .hdr, relative to \
+                             the manifest)",
                             entry.kind
                         ),
                     ));
@@ -515,9 +587,13 @@ impl Manifest {
             statics.insert(entry.static_name(), index);
             masks.push(entry);
         }
+        let name_positions = (0..masks.len())
+            .map(|index| source.field_pos(index, "name"))
+            .collect();
         Ok(Manifest {
             path: path.as_ref().to_owned(),
             masks,
+            name_positions,
         })
     }
 
@@ -765,10 +841,12 @@ fn applies_to(field: &str) -> &'static str {
     }
 }
 
-/// Reads and checks the image at `path`; the error message names the file.
+/// Reads (once: a regular file within [`ImagePdf::MAX_FILE_BYTES`]) and checks the image at
+/// `path`; the error message names the file.
 fn load_image(path: &Path) -> Result<ImageSource, String> {
-    let bytes = std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-    let pdf = ImagePdf::load(path).map_err(|e| e.to_string())?;
+    let bytes = stbn_gen::export::read_regular_file(path, ImagePdf::MAX_FILE_BYTES)
+        .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let pdf = ImagePdf::decode(path, &bytes).map_err(|e| e.to_string())?;
     Ok(ImageSource {
         path: path.to_owned(),
         hash: blake3::hash(&bytes),
@@ -803,7 +881,8 @@ const KEYWORDS: &[&str] = &[
     "typeof", "unsafe", "unsized", "use", "virtual", "where", "while", "yield",
 ];
 
-/// Checks that `name` is an ASCII Rust identifier and not a keyword.
+/// Checks that `name` is an ASCII Rust identifier, not a keyword, and at most
+/// [`Manifest::MAX_NAME_LEN`] characters long.
 fn check_identifier(name: &str) -> Result<(), String> {
     let mut chars = name.chars();
     let identifier = name != "_"
@@ -818,6 +897,13 @@ fn check_identifier(name: &str) -> Result<(), String> {
         ))
     } else if KEYWORDS.contains(&name) {
         Err(format!("{name:?} is a Rust keyword"))
+    } else if name.len() > Manifest::MAX_NAME_LEN {
+        Err(format!(
+            "is {} characters long; at most {} are allowed (the name becomes file names, which \
+             file systems limit to 255 bytes)",
+            name.len(),
+            Manifest::MAX_NAME_LEN
+        ))
     } else {
         Ok(())
     }
@@ -842,20 +928,46 @@ fn spec_error_field(error: &SpecError, has_sigma_time: bool) -> (&'static str, S
         }
         SpecError::TooLarge { .. } => ("size", error.to_string()),
         SpecError::InvalidSigma { field, value } => (
-            match *field {
-                "sigma_z" if has_sigma_time => "sigma_time",
-                "sigma_value" => "sigma_value",
-                _ => "sigma",
-            },
-            format!("must be finite and > 0 (got {value})"),
+            sigma_field(field, has_sigma_time),
+            format!("must be finite and > 0 (got {})", number(*value)),
         ),
-        SpecError::InvalidDensity(value) => {
-            ("density", format!("must be in (0, 0.5] (got {value})"))
-        }
+        SpecError::SigmaTooSmall { field, value } => (
+            sigma_field(field, has_sigma_time),
+            format!(
+                "must be at least {:e} (got {}): below it 1/σ² overflows and the kernel loses \
+                 its centre pixel; every σ below about 0.3 gives the same mask",
+                MaskSpec::MIN_SIGMA,
+                number(*value)
+            ),
+        ),
+        SpecError::InvalidDensity(value) => (
+            "density",
+            format!("must be in (0, 0.5] (got {})", number(*value)),
+        ),
         SpecError::InvalidTolerance(value) => (
             "kernel_tolerance",
-            format!("must be in (0, 1) (got {value})"),
+            format!("must be in (0, 1) (got {})", number(*value)),
         ),
+    }
+}
+
+/// The manifest field of the spec's σ field `field`.
+fn sigma_field(field: &str, has_sigma_time: bool) -> &'static str {
+    match field {
+        "sigma_z" if has_sigma_time => "sigma_time",
+        "sigma_value" => "sigma_value",
+        _ => "sigma",
+    }
+}
+
+/// `value` for a message: plain for everyday magnitudes (`-1`, `0.25`), in exponent notation
+/// for tiny and huge ones (`1e-200`, not two hundred digits).
+fn number(value: f64) -> String {
+    let magnitude = value.abs();
+    if value == 0.0 || !value.is_finite() || (1e-4..1e16).contains(&magnitude) {
+        value.to_string()
+    } else {
+        format!("{value:e}")
     }
 }
 
@@ -939,8 +1051,22 @@ impl Source<'_> {
                     .zip(field_index)
                     .map(|(entry, i)| entry.fields[i].name.clone());
                 let ron_message = lowercase_first(&code.to_string());
+                // ron reads `1.5` for an integer as `1` followed by a stray `.5`.
+                let fraction = match (code, entry, field_index) {
+                    (E::ExpectedComma, Some(entry), Some(i))
+                        if entry.fields[i].value.offset < offset
+                            && self.text[offset..].starts_with(['.', 'e', 'E'])
+                            && self.text[..offset].ends_with(|c: char| c.is_ascii_digit()) =>
+                    {
+                        let field = &entry.fields[i];
+                        self.text.get(field.value.offset..field.value_end.offset)
+                    }
+                    _ => None,
+                };
                 let message = if (line, column) != (start.line, start.col) {
                     "expected `,` after this field's value".to_owned()
+                } else if let Some(value) = fraction {
+                    format!("expected an integer (this field takes whole numbers), found `{value}`")
                 } else if let (false, Some(variants)) = (
                     matches!(code, E::NoSuchEnumVariant { .. }),
                     field.as_deref().and_then(enum_variants),
