@@ -151,15 +151,16 @@ fn generated_module_declares_each_mask() {
     assert!(code.contains("σ 1.5 pixels in space, 1.5 frames in time"));
 }
 
-/// The cache entry of mask `index` of the project's manifest.
-fn entry_path(project: &Project, cache: &Path, index: usize) -> PathBuf {
+/// The cache key of mask `index` of the project's manifest.
+fn key(project: &Project, index: usize) -> CacheKey {
     let manifest = project.manifest();
     let mask = &manifest.masks()[index];
-    Cache::new(cache).entry_path(&CacheKey::new(
-        &mask.recipe(),
-        mask.encoding,
-        mask.compression,
-    ))
+    CacheKey::new(&mask.recipe(), mask.encoding, mask.compression)
+}
+
+/// The cache entry of mask `index` of the project's manifest.
+fn entry_path(project: &Project, cache: &Path, index: usize) -> PathBuf {
+    Cache::new(cache).entry_path(&key(project, index))
 }
 
 #[test]
@@ -195,10 +196,10 @@ fn invalid_cache_entries_are_detected_and_regenerated() {
     }
     assert!(report.masks.iter().all(|m| m.stored));
     assert_eq!(blobs(&report), good);
-    for (entry, blob) in entries.iter().zip(&good) {
+    for (index, (entry, blob)) in entries.iter().zip(&good).enumerate() {
         assert_eq!(
-            &std::fs::read(entry).unwrap(),
-            blob,
+            std::fs::read(entry).unwrap(),
+            key(&project, index).entry_bytes(blob),
             "entry was not overwritten"
         );
     }
@@ -344,4 +345,94 @@ fn manifest_problems_stop_the_embed() {
         err.to_string().starts_with("could not read the manifest"),
         "{err}"
     );
+}
+
+#[test]
+fn an_entry_is_bound_to_its_key() {
+    // Two masks of one size and layout: their blobs pass each other's header checks.
+    let project = Project::new(
+        r#"(masks: [
+            (name: "a", kind: Scalar, size: (8, 8, 4), seed: 1, encoding: Unorm8),
+            (name: "b", kind: Scalar, size: (8, 8, 4), seed: 2, encoding: Unorm8),
+        ])"#,
+    );
+    let cache = project.path("cache");
+    let good = blobs(&project.embed("out", &cache));
+    assert_ne!(good[0], good[1]);
+    let (a, b) = (
+        entry_path(&project, &cache, 0),
+        entry_path(&project, &cache, 1),
+    );
+    assert_eq!(
+        std::fs::read(&a).unwrap(),
+        key(&project, 0).entry_bytes(&good[0])
+    );
+
+    // a's entry copied to b's path: a valid blob of the right shape, bound to another key.
+    std::fs::copy(&a, &b).unwrap();
+    let report = project.embed("out", &cache);
+    assert_eq!(report.masks[0].cache, CacheStatus::Hit);
+    let CacheStatus::Invalid(reason) = &report.masks[1].cache else {
+        panic!("{:?}", report.masks[1].cache)
+    };
+    assert!(reason.contains("names another key"), "{reason}");
+    assert_eq!(blobs(&report), good, "b embeds its own mask, regenerated");
+    assert_eq!(
+        std::fs::read(&b).unwrap(),
+        key(&project, 1).entry_bytes(&good[1])
+    );
+
+    // The bare blob, without its key record.
+    std::fs::write(&b, &good[1]).unwrap();
+    let report = project.embed("out", &cache);
+    let CacheStatus::Invalid(reason) = &report.masks[1].cache else {
+        panic!("{:?}", report.masks[1].cache)
+    };
+    assert!(reason.contains("no key record"), "{reason}");
+    assert_eq!(blobs(&report), good);
+    assert_eq!(
+        statuses(&project.embed("out", &cache)),
+        vec![CacheStatus::Hit; 2]
+    );
+}
+
+#[cfg(unix)]
+#[test]
+fn entries_that_are_not_regular_files_or_too_large_are_regenerated_without_reading() {
+    let project = Project::new(MANIFEST);
+    let cache = project.path("cache");
+    let good = blobs(&project.embed("out", &cache));
+    let entries: Vec<PathBuf> = (0..3).map(|i| entry_path(&project, &cache, i)).collect();
+    std::fs::remove_file(&entries[0]).unwrap();
+    assert!(
+        std::process::Command::new("mkfifo")
+            .arg(&entries[0])
+            .status()
+            .unwrap()
+            .success()
+    );
+    std::fs::remove_file(&entries[1]).unwrap();
+    std::os::unix::fs::symlink("/dev/zero", &entries[1]).unwrap();
+    // Far larger than any entry of this mask can be.
+    std::fs::write(&entries[2], vec![0u8; 1 << 20]).unwrap();
+
+    let config = project.config("out", &cache);
+    let (send, receive) = std::sync::mpsc::channel();
+    std::thread::spawn(move || send.send(embed_with(&config)));
+    let report = receive
+        .recv_timeout(std::time::Duration::from_secs(60))
+        .expect("embed_with returned within 60 s")
+        .unwrap();
+    let reasons: Vec<String> = report
+        .masks
+        .iter()
+        .map(|m| match &m.cache {
+            CacheStatus::Invalid(reason) => reason.clone(),
+            other => panic!("{}: {other:?}", m.name),
+        })
+        .collect();
+    assert!(reasons[0].contains("not a regular file"), "{}", reasons[0]);
+    assert!(reasons[1].contains("not a regular file"), "{}", reasons[1]);
+    assert!(reasons[2].contains("over the limit"), "{}", reasons[2]);
+    assert_eq!(blobs(&report), good);
 }

@@ -1,16 +1,26 @@
 //! A content-addressed cache of encoded blobs, shared by builds.
 //!
-//! Each entry is the finished `.stbn` blob, stored as `<dir>/<key>.stbn` where the key is the
-//! BLAKE3 hash of a canonical description of everything that determines the blob's bytes: the
-//! [`Recipe`] (generator, spec fields, image content hash, layout), the encoding and compression,
-//! [`GENERATOR_VERSION`], [`ENCODER_VERSION`], the `.stbn` format
-//! version and [`DEFLATE_LEVEL`]. Mask names are not
-//! part of the key, so equal masks under different names share an entry.
+//! Each entry is stored as `<dir>/<key>.stbn` where the key is the BLAKE3 hash of a canonical
+//! description of everything that determines the blob's bytes: the [`Recipe`] (generator, spec
+//! fields, image content hash, layout), the encoding and compression, [`GENERATOR_VERSION`],
+//! [`ENCODER_VERSION`], the `.stbn` format version, [`DEFLATE_LEVEL`] and the version of the entry
+//! format below. Mask names are not part of the key, so equal masks under different names
+//! share an entry.
+//!
+//! # Entry format
+//!
+//! An entry is the finished `.stbn` blob, unchanged, followed by a 48-byte key record: the 16
+//! bytes `stbn-cache-key\0\x02`, then the entry's 32-byte key ([`CacheKey::entry_bytes`]). The blob format is the runtime's and
+//! has no room for the key; the record binds the file to the key it was written for, so a valid
+//! blob copied or renamed to another key's path (another mask's bytes) is not a hit.
 //!
 //! * Writes go to a uniquely named temporary file in the cache directory, renamed over the entry:
 //!   concurrent builds each write whole files, and readers never see a partial one.
-//! * Reads are verified ([`PackedStbn::from_bytes`] plus a header comparison); an entry that fails
-//!   is regenerated and overwritten, with a warning.
+//! * Reads take only a regular file (a FIFO or device is refused without reading it) no larger
+//!   than a valid entry of the recipe can be, checked before reading, in one read.
+//! * Reads are verified: the blob ([`PackedStbn::from_bytes`] plus a header comparison with the
+//!   recipe), then the key record. An entry that fails is regenerated and overwritten, with a
+//!   warning.
 //! * A cache directory that cannot be created or written only costs a warning: the blob is still
 //!   generated and returned.
 //!
@@ -36,6 +46,16 @@ pub use stbn_gen::GENERATOR_VERSION;
 /// Environment variable that overrides the cache directory.
 pub const CACHE_DIR_ENV: &str = "STBN_CACHE_DIR";
 
+/// Version of the entry format ([module docs](self)), part of every key: entries of another
+/// format are never looked up.
+const ENTRY_FORMAT: u32 = 2;
+
+/// The first 16 bytes of the key record that ends every entry.
+const KEY_RECORD_MAGIC: [u8; 16] = *b"stbn-cache-key\x00\x02";
+
+/// Bytes of the key record: [`KEY_RECORD_MAGIC`] and the 32-byte key.
+const KEY_RECORD_LEN: usize = KEY_RECORD_MAGIC.len() + blake3::OUT_LEN;
+
 /// The identity of a blob: a BLAKE3 hash of its canonical description.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct CacheKey(blake3::Hash);
@@ -52,12 +72,22 @@ impl CacheKey {
     pub fn to_hex(&self) -> String {
         self.0.to_hex().to_string()
     }
+
+    /// `blob` followed by the key record that binds it to this key: the bytes of a cache entry.
+    pub fn entry_bytes(&self, blob: &[u8]) -> Vec<u8> {
+        let mut entry = Vec::with_capacity(blob.len() + KEY_RECORD_LEN);
+        entry.extend_from_slice(blob);
+        entry.extend_from_slice(&KEY_RECORD_MAGIC);
+        entry.extend_from_slice(self.0.as_bytes());
+        entry
+    }
 }
 
 /// One line per input, floats as their exact bit patterns.
 fn canonical_description(recipe: &Recipe, encoding: Encoding, compression: Compression) -> String {
     format!(
         "stbn-build-support cache entry\n\
+         entry_format={ENTRY_FORMAT}\n\
          generator_version={GENERATOR_VERSION}\n\
          encoder_version={ENCODER_VERSION}\n\
          stbn_format_version={}\n\
@@ -125,11 +155,15 @@ impl Cache {
         encoding: Encoding,
         compression: Compression,
     ) -> Result<Fetched, VectorSpecError> {
-        let path = self.entry_path(&CacheKey::new(recipe, encoding, compression));
+        let key = CacheKey::new(recipe, encoding, compression);
+        let path = self.entry_path(&key);
         let mut warnings = Vec::new();
-        let status = match std::fs::read(&path) {
-            Ok(blob) => match verify(&blob, recipe, encoding, compression) {
+        let read = stbn_gen::export::read_regular_file(&path, max_entry_len(recipe, encoding));
+        let status = match read {
+            Ok(entry) => match verify_entry(&entry, &key, recipe, encoding, compression) {
                 Ok(()) => {
+                    let mut blob = entry;
+                    blob.truncate(blob.len() - KEY_RECORD_LEN);
                     return Ok(Fetched {
                         blob,
                         status: CacheStatus::Hit,
@@ -153,6 +187,20 @@ impl Cache {
             {
                 CacheStatus::Miss
             }
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    io::ErrorKind::InvalidInput | io::ErrorKind::InvalidData
+                ) =>
+            {
+                // Not a regular file, or larger than any valid entry of this recipe.
+                let reason = e.to_string();
+                warnings.push(format!(
+                    "cache entry {} is invalid ({reason}); regenerating it",
+                    path.display()
+                ));
+                CacheStatus::Invalid(reason)
+            }
             Err(e) => {
                 warnings.push(format!(
                     "could not read cache entry {} ({e}); regenerating it",
@@ -162,7 +210,7 @@ impl Cache {
             }
         };
         let (_, blob) = recipe.make(encoding, compression)?;
-        let stored = match write_atomically(&path, &blob) {
+        let stored = match write_atomically(&path, &key.entry_bytes(&blob)) {
             Ok(()) => true,
             Err(e) => {
                 warnings.push(format!(
@@ -178,6 +226,46 @@ impl Cache {
             stored,
             warnings,
         })
+    }
+}
+
+/// The most bytes a valid entry of `recipe` stored with `encoding` can have: the 64-byte header,
+/// the payload uncompressed plus what compression may add to incompressible data (LZ4 and
+/// deflate's stored blocks both add under 1%), and the key record.
+fn max_entry_len(recipe: &Recipe, encoding: Encoding) -> u64 {
+    let (width, height, depth) = recipe.size();
+    let raw = u64::from(width)
+        * u64::from(height)
+        * u64::from(depth)
+        * u64::from(recipe.layout().channels)
+        * encoding.bytes_per_element() as u64;
+    64 + raw + raw / 64 + 4096 + KEY_RECORD_LEN as u64
+}
+
+/// Checks a cache entry read from `key`'s path: its blob as [`verify`] does, then that its key
+/// record names `key`.
+fn verify_entry(
+    entry: &[u8],
+    key: &CacheKey,
+    recipe: &Recipe,
+    encoding: Encoding,
+    compression: Compression,
+) -> Result<(), String> {
+    let (blob, record) = match entry.len().checked_sub(KEY_RECORD_LEN) {
+        Some(end) if entry[end..].starts_with(&KEY_RECORD_MAGIC) => {
+            (&entry[..end], Some(&entry[end + KEY_RECORD_MAGIC.len()..]))
+        }
+        _ => (entry, None),
+    };
+    verify(blob, recipe, encoding, compression)?;
+    match record {
+        None => Err("it has no key record: not written by this cache for its key".to_owned()),
+        Some(recorded) if recorded != key.0.as_bytes() => Err(format!(
+            "its key record names another key ({}): another mask's entry under this key's name",
+            blake3::Hash::from_slice(recorded)
+                .map_or_else(|_| "?".to_owned(), |h| h.to_hex().to_string())
+        )),
+        Some(_) => Ok(()),
     }
 }
 

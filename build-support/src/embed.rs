@@ -168,9 +168,11 @@ pub fn embed_with(config: &EmbedConfig) -> Result<EmbedReport, Error> {
     })
 }
 
-/// Writes `bytes` to `path` unless it already holds exactly them.
+/// Writes `bytes` to `path` unless it already holds exactly them (only a regular file no longer
+/// than `bytes` is read to compare).
 fn write_if_changed(path: &Path, bytes: &[u8]) -> Result<(), Error> {
-    if std::fs::read(path).is_ok_and(|old| old == bytes) {
+    let old = stbn_gen::export::read_regular_file(path, bytes.len() as u64);
+    if old.is_ok_and(|old| old == bytes) {
         return Ok(());
     }
     write_atomically(path, bytes).map_err(|e| Error::io("write", path, e))
