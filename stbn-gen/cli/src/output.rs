@@ -8,8 +8,7 @@
 mod chart;
 mod table;
 
-use std::fs::{self, File};
-use std::io::BufWriter;
+use std::fs;
 use std::path::Path;
 
 pub use chart::{Axis, Chart, Series, SeriesLabelPosition, Style, colour_name};
@@ -37,12 +36,15 @@ pub fn write_png(
 ) -> Result<()> {
     let failed = |e: &dyn std::fmt::Display| format!("cannot write {}: {e}", path.display());
     let side = |n: usize| u32::try_from(n).map_err(|e| failed(&e));
-    let file = File::create(path).map_err(|e| failed(&e))?;
-    let mut encoder = png::Encoder::new(BufWriter::new(file), side(width)?, side(height)?);
+    // Encoded in memory, then written by one call that reports every error (a buffered file
+    // drops the error of its last flush).
+    let mut encoded = Vec::new();
+    let mut encoder = png::Encoder::new(&mut encoded, side(width)?, side(height)?);
     encoder.set_color(color);
     encoder.set_depth(png::BitDepth::Eight);
     let mut writer = encoder.write_header().map_err(|e| failed(&e))?;
     writer.write_image_data(pixels).map_err(|e| failed(&e))?;
     writer.finish().map_err(|e| failed(&e))?;
+    fs::write(path, encoded).map_err(|e| failed(&e))?;
     Ok(())
 }

@@ -1,14 +1,28 @@
 //! Vector-mask output of `stbn-gen generate`: multi-channel PNG slices, a JSON sidecar that says
 //! how to decode them, and the optimiser's energy trace as CSV.
 
-use std::fs::{self, File};
-use std::io::{self, BufWriter, Write as _};
+use std::fmt::Write as _;
+use std::fs;
 use std::path::Path;
 
 use serde::Serialize;
 use stbn_build_support::{MaskEntry, Method};
 use stbn_gen::EnergyTrace;
 use stbn_runtime::{Encoding, Space, Stbn, ValueMap};
+
+use crate::Result;
+
+/// Creates `folder` and its parents; the error names it.
+fn create_folder(folder: &Path) -> Result<()> {
+    fs::create_dir_all(folder).map_err(|e| format!("cannot create {}: {e}", folder.display()))?;
+    Ok(())
+}
+
+/// Writes `bytes` to `path` in one call whose every error is reported, naming the file.
+fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
+    fs::write(path, bytes).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    Ok(())
+}
 
 /// Channel `c` of every voxel in index order, as the runtime samples it.
 pub fn channel_values(mask: &Stbn<'_>, c: u32) -> Vec<f64> {
@@ -32,11 +46,12 @@ pub fn channel_values(mask: &Stbn<'_>, c: u32) -> Vec<f64> {
 /// masks give 8-bit PNGs with the stored bytes; Unorm16 16-bit PNGs with the stored codes; F32
 /// masks 16-bit PNGs of `floor(u · 65536)` clamped to the range. Slices `<name>_<z>.png` with
 /// `z ≥ depth` left by an earlier, deeper mask are removed.
-pub fn write_png_slices(mask: &Stbn<'_>, folder: &Path, name: &str) -> io::Result<()> {
-    fs::create_dir_all(folder)?;
+pub fn write_png_slices(mask: &Stbn<'_>, folder: &Path, name: &str) -> Result<()> {
+    create_folder(folder)?;
     let depth = mask.depth();
-    for entry in fs::read_dir(folder)? {
-        let path = entry?.path();
+    let list_error = |e: std::io::Error| format!("cannot list {}: {e}", folder.display());
+    for entry in fs::read_dir(folder).map_err(list_error)? {
+        let path = entry.map_err(list_error)?.path();
         let stale = path
             .file_name()
             .and_then(|f| f.to_str())
@@ -48,7 +63,7 @@ pub fn write_png_slices(mask: &Stbn<'_>, folder: &Path, name: &str) -> io::Resul
             .and_then(|z| z.parse::<u32>().ok())
             .is_some_and(|z| z >= depth);
         if stale {
-            fs::remove_file(&path)?;
+            fs::remove_file(&path).map_err(|e| format!("cannot remove {}: {e}", path.display()))?;
         }
     }
     let channels = usize::from(mask.channels());
@@ -102,20 +117,20 @@ pub fn write_png_slices(mask: &Stbn<'_>, folder: &Path, name: &str) -> io::Resul
             }
         }
         let path = folder.join(format!("{name}_{z}.png"));
-        let mut encoder = png::Encoder::new(
-            BufWriter::new(File::create(&path)?),
-            mask.width(),
-            mask.height(),
-        );
+        let encode_error = |e: png::EncodingError| format!("cannot encode {}: {e}", path.display());
+        // Encoded in memory, then written by one call that reports every error.
+        let mut encoded = Vec::new();
+        let mut encoder = png::Encoder::new(&mut encoded, mask.width(), mask.height());
         encoder.set_color(png::ColorType::Rgba);
         encoder.set_depth(if sixteen {
             png::BitDepth::Sixteen
         } else {
             png::BitDepth::Eight
         });
-        let mut writer = encoder.write_header().map_err(io::Error::other)?;
-        writer.write_image_data(&data).map_err(io::Error::other)?;
-        writer.finish().map_err(io::Error::other)?;
+        let mut writer = encoder.write_header().map_err(encode_error)?;
+        writer.write_image_data(&data).map_err(encode_error)?;
+        writer.finish().map_err(encode_error)?;
+        write_file(&path, &encoded)?;
     }
     Ok(())
 }
@@ -173,7 +188,7 @@ pub fn write_sidecar(
     entry: &MaskEntry,
     trace: &EnergyTrace,
     folder: &Path,
-) -> io::Result<()> {
+) -> Result<()> {
     let header = mask.header();
     let stored = match header.encoding {
         Encoding::Unorm8 => "stored unit value u = (q + 0.5) / 256 for byte q",
@@ -244,9 +259,12 @@ pub fn write_sidecar(
             })
             .collect(),
     };
-    fs::create_dir_all(folder)?;
-    let json = serde_json::to_string_pretty(&sidecar).map_err(io::Error::other)?;
-    fs::write(folder.join(format!("{}.json", entry.name)), json + "\n")
+    create_folder(folder)?;
+    let json = serde_json::to_string_pretty(&sidecar).expect("the sidecar serialises");
+    write_file(
+        &folder.join(format!("{}.json", entry.name)),
+        (json + "\n").as_bytes(),
+    )
 }
 
 /// Which stored channel each RGBA channel of a PNG slice holds ([`write_png_slices`]).
@@ -272,16 +290,29 @@ fn png_layout(channels: u8, stores_pdf: bool) -> String {
 }
 
 /// Writes `<folder>/<name>_trace.csv`: `swaps_attempted,swaps_accepted,energy` per pass.
-pub fn write_trace(trace: &EnergyTrace, folder: &Path, name: &str) -> io::Result<()> {
-    fs::create_dir_all(folder)?;
-    let mut out = BufWriter::new(File::create(folder.join(format!("{name}_trace.csv")))?);
-    writeln!(out, "swaps_attempted,swaps_accepted,energy")?;
+pub fn write_trace(trace: &EnergyTrace, folder: &Path, name: &str) -> Result<()> {
+    create_folder(folder)?;
+    let mut csv = String::from("swaps_attempted,swaps_accepted,energy\n");
     for p in &trace.points {
         writeln!(
-            out,
+            csv,
             "{},{},{:e}",
             p.swaps_attempted, p.swaps_accepted, p.energy
-        )?;
+        )
+        .expect("String");
     }
-    out.flush()
+    write_file(&folder.join(format!("{name}_trace.csv")), csv.as_bytes())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn a_full_disk_is_an_error_naming_the_file() {
+        let error = write_file(Path::new("/dev/full"), b"slice").unwrap_err();
+        let message = error.to_string();
+        assert!(message.starts_with("cannot write /dev/full: "), "{message}");
+    }
 }
