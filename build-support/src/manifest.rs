@@ -935,7 +935,8 @@ fn spec_error_field(error: &SpecError, has_sigma_time: bool) -> (&'static str, S
             sigma_field(field, has_sigma_time),
             format!(
                 "must be at least {:e} (got {}): below it 1/σ² overflows and the kernel loses \
-                 its centre pixel; every σ below about 0.3 gives the same mask",
+                 its centre pixel (at the default tolerance, any σ below about 0.3 already gives \
+                 a kernel of the pixel alone)",
                 MaskSpec::MIN_SIGMA,
                 number(*value)
             ),
