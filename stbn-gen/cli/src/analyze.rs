@@ -11,7 +11,8 @@ use stbn_gen::filter_adapted::{FilterAdaptedSpec, generate_filter_adapted};
 use stbn_gen::{MaskSpec, generate};
 
 use crate::Result;
-use crate::report::{self, Row};
+use crate::report::Report;
+use crate::staging::Staging;
 
 /// Reads every folder of `<name>_<z>.png` slices in `dirs`, prints a summary line per mask and
 /// writes `<out>/report.md`. With `baseline_seed`, also generates and measures every baseline
@@ -21,22 +22,52 @@ use crate::report::{self, Row};
 /// rows named `<baseline>_<w>x<h>x<d>`, followed by the STBN mask (`Scalar`) and the
 /// filter-adapted mask (`FilterAdapted` with its defaults: optimised for the filter the
 /// filtered-error column applies) of that size and seed.
+///
+/// `out` is checked to be a writable folder before anything is read, and the report is written
+/// into a staging folder and moved into place at the end ([`Staging`]). Folders of colour slices
+/// whose channels differ (only red is read) and slices that hold one value (they measure as
+/// perfect) are warned about on stderr and in the report.
 pub fn run(dirs: &[PathBuf], out: &Path, baseline_seed: Option<u64>) -> Result<()> {
-    let mut rows = Vec::with_capacity(dirs.len());
+    let staging = Staging::new(out)?;
+    let mut report = Report::create(staging.dir())?;
+    let mut sizes = Vec::with_capacity(dirs.len());
+    let mut warnings = Vec::new();
     for dir in dirs {
         let stack = read_slices_png(dir)?;
+        if let Some(z) = stack.colour_slice() {
+            warnings.push(format!(
+                "{}: slice {z} (and maybe others) is a colour image whose green or blue differ \
+                 from red; only the red channel is analysed",
+                dir.display()
+            ));
+        }
+        let field = stack.field();
+        if stack.constant_slices() > 0 {
+            warnings.push(format!(
+                "{}: {} of {} slices hold a single value; they measure as perfectly uniform and \
+                 say nothing about blue noise",
+                dir.display(),
+                stack.constant_slices(),
+                field.depth()
+            ));
+        }
         let kind = format!("png {}-bit", stack.bit_depth().bits());
-        let row = Row::measure(stack.name(), &kind, None, &stack.field());
+        let row = report.measure(stack.name(), &kind, None, &field)?;
         println!("{}", row.summary());
-        rows.push(row);
+        sizes.push(row.size);
+    }
+    for warning in &warnings {
+        eprintln!("warning: {warning}");
     }
     let folders: Vec<String> = dirs
         .iter()
         .map(|dir| format!("`{}`", dir.display()))
         .collect();
     let mut intro = format!("PNG slices analysed from {}.", folders.join(", "));
+    for warning in &warnings {
+        intro.push_str(&format!("\n\n**Warning:** {warning}."));
+    }
     if let Some(seed) = baseline_seed {
-        let mut sizes: Vec<(usize, usize, usize)> = rows.iter().map(|row| row.size).collect();
         sizes.sort_unstable();
         sizes.dedup();
         for (w, h, d) in sizes {
@@ -48,9 +79,8 @@ pub fn run(dirs: &[PathBuf], out: &Path, baseline_seed: Option<u64>) -> Result<(
                 let field =
                     Field::new(w, h, d, &baseline.values).expect("baselines are valid fields");
                 let name = format!("{}_{w}x{h}x{d}", baseline.name);
-                let row = Row::measure(&name, baseline.kind, Some(baseline.seconds), &field);
+                let row = report.measure(&name, baseline.kind, Some(baseline.seconds), &field)?;
                 println!("{}", row.summary());
-                rows.push(row);
             }
             let (wu, hu, du) = (axis(w)?, axis(h)?, axis(d)?);
             let start = Instant::now();
@@ -68,9 +98,8 @@ pub fn run(dirs: &[PathBuf], out: &Path, baseline_seed: Option<u64>) -> Result<(
                 let values = volume.values();
                 let field = Field::new(w, h, d, &values).expect("masks are valid fields");
                 let name = format!("{name}_{w}x{h}x{d}");
-                let row = Row::measure(&name, kind, Some(seconds), &field);
+                let row = report.measure(&name, kind, Some(seconds), &field)?;
                 println!("{}", row.summary());
-                rows.push(row);
             }
         }
         intro.push_str(&format!(
@@ -93,8 +122,9 @@ pub fn run(dirs: &[PathBuf], out: &Path, baseline_seed: Option<u64>) -> Result<(
             FilterAdaptedSpec::DEFAULT_SWAPS_PER_PIXEL
         ));
     }
-    let path = report::write(out, &intro, &rows)?;
-    println!("report: {}", path.display());
+    report.finish(&intro, "")?;
+    staging.commit(&Report::files())?;
+    println!("report: {}", out.join("report.md").display());
     Ok(())
 }
 

@@ -5,13 +5,14 @@ use std::path::Path;
 use std::time::Instant;
 
 use clap::ValueEnum;
-use indicatif::{ProgressBar, ProgressStyle};
+use indicatif::ProgressBar;
 use stbn_build_support::{Generated, Manifest, MaskEntry, Method};
 use stbn_gen::analysis::Field;
 use stbn_gen::export::{PngDepth, write_slices_png};
 use stbn_runtime::{Encoding, PackedStbn, Space, ValueMap};
 
-use crate::report::{self, Row};
+use crate::report::{self, Report};
+use crate::staging::Staging;
 use crate::{Result, ktx2, pairs, vector};
 
 /// How `generate` writes each mask.
@@ -31,6 +32,11 @@ pub enum OutputFormat {
 /// Generates every mask of `manifest` into `out` in `format` (see [`OutputFormat`]), prints a
 /// summary line per mask and writes `<out>/report.md`. `swaps_per_pixel` replaces the budget of
 /// every mask a swap optimiser makes (the vector kinds and `FilterAdapted`).
+///
+/// Checked before anything is generated: the manifest declares a mask, no mask is named like a
+/// folder of the report ([`report::RESERVED_NAMES`]), and `out` is a writable folder. Everything
+/// is written into a staging folder inside `out` and moved into place at the end ([`Staging`]):
+/// an interrupted or failed run leaves the previous output as it was.
 pub fn run(
     manifest: &Path,
     out: &Path,
@@ -38,8 +44,33 @@ pub fn run(
     swaps_per_pixel: Option<f64>,
 ) -> Result<()> {
     let manifest = Manifest::load(manifest)?;
-    let mut rows = Vec::with_capacity(manifest.masks().len());
-    let mut point_masks = Vec::new();
+    if manifest.masks().is_empty() {
+        return Err(format!(
+            "{}: the manifest declares no masks, so there is nothing to generate",
+            manifest.path().display()
+        )
+        .into());
+    }
+    for (index, entry) in manifest.masks().iter().enumerate() {
+        if let Some(reserved) = report::RESERVED_NAMES
+            .iter()
+            .find(|r| r.eq_ignore_ascii_case(&entry.name))
+        {
+            return Err(manifest
+                .name_error(
+                    index,
+                    format!(
+                        "is the name of the report's folder `{reserved}/` beside the masks; \
+                         `generate` refuses it (rename the mask)"
+                    ),
+                )
+                .into());
+        }
+    }
+    let staging = Staging::new(out)?;
+    let mut report = Report::create(staging.dir())?;
+    let mut written = Vec::new();
+    let mut point_sections = String::new();
     for entry in manifest.masks() {
         let with_budget;
         let entry = match swaps_per_pixel {
@@ -66,12 +97,12 @@ pub fn run(
             && mask.header().value_map == ValueMap::Unit
             && mask.dims() >= 2
         {
-            point_masks.push(pairs::PointMask {
+            point_sections += &pairs::mask_section(&pairs::PointMask {
                 name: entry.name.clone(),
                 size: (w as usize, h as usize, d as usize),
                 xs: vector::channel_values(&mask, 0),
                 ys: vector::channel_values(&mask, 1),
-            });
+            })?;
         }
         let kind = match (entry.kind.method(), entry.space) {
             (Method::VoidAndCluster(topology), _) => topology.name().to_owned(),
@@ -86,6 +117,8 @@ pub fn run(
         };
         let field = Field::new(w as usize, h as usize, d as usize, &values)
             .expect("a mask's values are a field");
+        let dir = staging.dir();
+        let name = &entry.name;
         match (format, &generated) {
             (OutputFormat::Png, Generated::Scalar(_)) => {
                 let depth = if entry.encoding == Encoding::Unorm8 {
@@ -93,38 +126,40 @@ pub fn run(
                 } else {
                     PngDepth::Sixteen
                 };
-                write_slices_png(&field, out, &entry.name, depth)?;
+                write_slices_png(&field, dir, name, depth)?;
+                written.push(name.clone());
             }
             (OutputFormat::Png, Generated::Vector { trace, .. }) => {
-                let folder = out.join(&entry.name);
-                vector::write_png_slices(&mask, &folder, &entry.name)
-                    .map_err(|e| mask_error(&e))?;
-                vector::write_sidecar(&mask, entry, trace, &folder).map_err(|e| mask_error(&e))?;
-                vector::write_trace(trace, &folder, &entry.name).map_err(|e| mask_error(&e))?;
+                let folder = dir.join(name);
+                vector::write_png_slices(&mask, &folder, name)?;
+                vector::write_sidecar(&mask, entry, trace, &folder)?;
+                vector::write_trace(trace, &folder, name)?;
+                written.push(name.clone());
             }
             (OutputFormat::Ktx2, _) => {
                 let file = ktx2::write(w, h, d, mask.channels(), entry.encoding, mask.data())
                     .map_err(|e| mask_error(&e))?;
-                fs::create_dir_all(out).map_err(|e| format!("creating {}: {e}", out.display()))?;
-                let path = out.join(format!("{}.ktx2", entry.name));
+                let path = dir.join(format!("{name}.ktx2"));
                 fs::write(&path, file).map_err(|e| format!("writing {}: {e}", path.display()))?;
+                written.push(format!("{name}.ktx2"));
                 if let Generated::Vector { trace, .. } = &generated {
-                    vector::write_sidecar(&mask, entry, trace, out).map_err(|e| mask_error(&e))?;
-                    vector::write_trace(trace, out, &entry.name).map_err(|e| mask_error(&e))?;
+                    vector::write_sidecar(&mask, entry, trace, dir)?;
+                    vector::write_trace(trace, dir, name)?;
+                    written.push(format!("{name}.json"));
+                    written.push(format!("{name}_trace.csv"));
                 }
             }
         }
-        let row = Row::measure(&entry.name, &kind, Some(seconds), &field);
+        let row = report.measure(name, &kind, Some(seconds), &field)?;
         println!("{}", row.summary());
-        rows.push(row);
     }
-    let written = match format {
+    let written_as = match format {
         OutputFormat::Png => "PNG slices `<name>/<name>_<frame>.png`",
         OutputFormat::Ktx2 => "KTX2 3D textures `<name>.ktx2`",
     };
     let mut intro = format!(
-        "Masks of `{}`, written as {written} next to this report. Vector masks are measured on \
-         their first stored channel.",
+        "Masks of `{}`, written as {written_as} next to this report. Vector masks are measured \
+         on their first stored channel.",
         manifest.path().display()
     );
     if let Some(budget) = swaps_per_pixel {
@@ -133,37 +168,31 @@ pub fn run(
              pixel (`--swaps-per-pixel`), not its manifest's budget."
         ));
     }
-    let path = report::write(out, &intro, &rows)?;
-    if !point_masks.is_empty() {
-        let section = pairs::section(&point_masks)?;
-        let mut file = fs::OpenOptions::new()
-            .append(true)
-            .open(&path)
-            .map_err(|e| format!("cannot append to {}: {e}", path.display()))?;
-        std::io::Write::write_all(&mut file, section.as_bytes())
-            .map_err(|e| format!("cannot append to {}: {e}", path.display()))?;
+    if !point_sections.is_empty() {
+        point_sections.insert_str(0, pairs::HEADING);
     }
-    println!("report: {}", path.display());
+    report.finish(&intro, &point_sections)?;
+    written.extend(Report::files());
+    staging.commit(&written)?;
+    println!("report: {}", out.join("report.md").display());
     Ok(())
 }
 
-/// Generates and encodes `entry`, with a progress bar for void-and-cluster masks (pixels
-/// ranked) and filter-adapted ones (passes done); the others show a spinner.
+/// Generates and encodes `entry`, with a progress bar (on a terminal) for void-and-cluster masks
+/// (pixels ranked) and swap-optimised ones (passes done, fraction of the budget and time left);
+/// baselines show a spinner.
 fn make(entry: &MaskEntry) -> Result<(Generated, Vec<u8>)> {
     let recipe = entry.recipe();
     let error = |e: &dyn std::fmt::Display| format!("mask {:?}: {e}", entry.name);
-    if let Some((spec, space)) = entry.filter_adapted_spec() {
-        let bar = ProgressBar::new(spec.swaps_per_pixel.ceil() as u64)
-            .with_style(
-                ProgressStyle::with_template(
-                    "{prefix} [{bar:40}] pass {pos}/{len} {elapsed_precise}, {eta} left",
-                )
-                .expect("the template is valid")
-                .progress_chars("=> "),
-            )
-            .with_prefix(entry.name.clone());
-        let mut progress =
-            |p: stbn_gen::filter_adapted::FilterAdaptedProgress| bar.set_position(p.passes_done);
+    let passes_template =
+        "{prefix} [{bar:40}] {percent:>3}% pass {msg} {elapsed_precise}, {eta} left";
+    let generated = if let Some((spec, space)) = entry.filter_adapted_spec() {
+        let passes = spec.swaps_per_pixel.ceil() as u64;
+        let bar = report::bar(passes, &entry.name, passes_template);
+        let mut progress = |p: stbn_gen::filter_adapted::FilterAdaptedProgress| {
+            bar.set_position(p.passes_done);
+            bar.set_message(format!("{}/{passes}", p.passes_done));
+        };
         let generated = match &space {
             None => Generated::Scalar(
                 stbn_gen::filter_adapted::generate_filter_adapted_with_trace(&spec, &mut progress)
@@ -181,46 +210,50 @@ fn make(entry: &MaskEntry) -> Result<(Generated, Vec<u8>)> {
             }
         };
         bar.finish_and_clear();
-        let blob = match &generated {
-            Generated::Scalar(volume) => {
-                stbn_build_support::encode::encode_volume(volume, entry.encoding, entry.compression)
-            }
-            Generated::Vector { volume, .. } => stbn_build_support::encode::encode_vector(
-                volume,
-                recipe.layout(),
-                entry.encoding,
-                entry.compression,
-            ),
-        };
-        return Ok((generated, blob));
-    }
-    if let Method::VoidAndCluster(_) = entry.kind.method() {
+        generated
+    } else if let Some(spec) = entry.vector_spec() {
+        // Quarter passes: the optimiser reports after each.
+        let passes = spec.swaps_per_pixel.ceil() as u64 + u64::from(spec.assignment_passes);
+        let bar = report::bar(4 * passes, &entry.name, passes_template);
+        let (volume, trace) = stbn_gen::generate_vector_with_progress(&spec, &mut |p| {
+            bar.set_position((4.0 * p.passes_done) as u64);
+            bar.set_message(format!("{:.2}/{}", p.passes_done, p.passes));
+        })
+        .map_err(|e| error(&e))?;
+        bar.finish_and_clear();
+        Generated::Vector { volume, trace }
+    } else if let Method::VoidAndCluster(_) = entry.kind.method() {
         let spec = entry.spec();
-        let bar = ProgressBar::new(spec.pixels())
-            .with_style(
-                ProgressStyle::with_template(
-                    "{prefix} [{bar:40}] {percent:>3}% {elapsed_precise}, {eta} left",
-                )
-                .expect("the template is valid")
-                .progress_chars("=> "),
-            )
-            .with_prefix(entry.name.clone());
+        let bar = report::bar(
+            spec.pixels(),
+            &entry.name,
+            "{prefix} [{bar:40}] {percent:>3}% {elapsed_precise}, {eta} left",
+        );
         let volume = stbn_gen::generate_with_progress(&spec, &mut |p| bar.set_position(p.ranked))
             .map_err(|e| error(&e))?;
         bar.finish_and_clear();
-        let blob =
-            stbn_build_support::encode::encode_volume(&volume, entry.encoding, entry.compression);
-        return Ok((Generated::Scalar(volume), blob));
-    }
-    let spinner = ProgressBar::new_spinner().with_prefix(entry.name.clone());
-    spinner.set_style(
-        ProgressStyle::with_template("{prefix} {spinner} {elapsed_precise}")
-            .expect("the template is valid"),
-    );
-    spinner.enable_steady_tick(std::time::Duration::from_millis(100));
-    let made = recipe
-        .make(entry.encoding, entry.compression)
-        .map_err(|e| error(&e))?;
-    spinner.finish_and_clear();
-    Ok(made)
+        Generated::Scalar(volume)
+    } else {
+        let spinner = ProgressBar::new_spinner().with_style(
+            indicatif::ProgressStyle::with_template("{prefix} {spinner} {elapsed_precise}")
+                .expect("the template is valid"),
+        );
+        spinner.set_prefix(entry.name.clone());
+        spinner.enable_steady_tick(std::time::Duration::from_millis(100));
+        let generated = recipe.generate().map_err(|e| error(&e))?;
+        spinner.finish_and_clear();
+        generated
+    };
+    let blob = match &generated {
+        Generated::Scalar(volume) => {
+            stbn_build_support::encode::encode_volume(volume, entry.encoding, entry.compression)
+        }
+        Generated::Vector { volume, .. } => stbn_build_support::encode::encode_vector(
+            volume,
+            recipe.layout(),
+            entry.encoding,
+            entry.compression,
+        ),
+    };
+    Ok((generated, blob))
 }

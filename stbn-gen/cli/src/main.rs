@@ -7,6 +7,7 @@ mod ktx2;
 mod output;
 mod pairs;
 mod report;
+mod staging;
 mod tradeoff;
 mod vector;
 

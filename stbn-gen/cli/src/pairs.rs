@@ -31,80 +31,79 @@ pub struct PointMask {
     pub ys: Vec<f64>,
 }
 
-/// Markdown for the section: per mask, RMSE of Monte Carlo and EMA (α 0.1) estimates after 4, 16
-/// and `depth` frames for each [`Integrand2D`], and the half-space filtered error at the last
+/// The section's heading and introduction (markdown); [`mask_section`] follows for each mask.
+pub const HEADING: &str = "\n## 2D integration (points in [0, 1)²)\n\n\
+     Each pixel integrates a 2D function over frames with the mask's (x, y) as samples \
+     (Wolfe et al. 2022, Fig. 6): a disc of radius 0.4, a Gaussian of σ 0.2 and the step \
+     x + y < 1. RMSE over pixels of the Monte Carlo mean / EMA (α 0.1) after n frames; \
+     `filtered` is EA's filtered error with random half-spaces as thresholds, at the last \
+     frame. References: scalar STBN of the same size read at (x, y) and at the R2 offset \
+     (`dimension_offset(1)`), and two independent white-noise masks. Lower is better.\n";
+
+/// Markdown for one mask of the section: RMSE of Monte Carlo and EMA (α 0.1) estimates after 4,
+/// 16 and `depth` frames for each [`Integrand2D`], and the half-space filtered error at the last
 /// frame, for the mask and for the two references (generated here with seed 1).
-pub fn section(masks: &[PointMask]) -> Result<String> {
-    let mut md = String::from(
-        "\n## 2D integration (points in [0, 1)²)\n\n\
-         Each pixel integrates a 2D function over frames with the mask's (x, y) as samples \
-         (Wolfe et al. 2022, Fig. 6): a disc of radius 0.4, a Gaussian of σ 0.2 and the step \
-         x + y < 1. RMSE over pixels of the Monte Carlo mean / EMA (α 0.1) after n frames; \
-         `filtered` is EA's filtered error with random half-spaces as thresholds, at the last \
-         frame. References: scalar STBN of the same size read at (x, y) and at the R2 offset \
-         (`dimension_offset(1)`), and two independent white-noise masks. Lower is better.\n",
+pub fn mask_section(mask: &PointMask) -> Result<String> {
+    let mut md = String::new();
+    let (w, h, d) = mask.size;
+    let stbn = stbn_gen::generate(
+        &MaskSpec::new(w as u32, h as u32, d as u32, 1)
+            .with_topology(EnergyTopology::Spatiotemporal),
+    )
+    .map_err(|e| format!("{}: reference STBN: {e}", mask.name))?
+    .values();
+    let (ox, oy) = (
+        ((1.0 / PLASTIC) * w as f64) as usize,
+        ((1.0 / (PLASTIC * PLASTIC)) * h as f64) as usize,
     );
-    for mask in masks {
-        let (w, h, d) = mask.size;
-        let stbn = stbn_gen::generate(
-            &MaskSpec::new(w as u32, h as u32, d as u32, 1)
-                .with_topology(EnergyTopology::Spatiotemporal),
-        )
-        .map_err(|e| format!("{}: reference STBN: {e}", mask.name))?
-        .values();
-        let (ox, oy) = (
-            ((1.0 / PLASTIC) * w as f64) as usize,
-            ((1.0 / (PLASTIC * PLASTIC)) * h as f64) as usize,
-        );
-        let shifted = toroidal_shift(&field(mask, &stbn)?, ox, oy);
-        let white = (white_noise(w, h, d, 1), white_noise(w, h, d, 2));
-        let rows = [
-            (format!("`{}`", mask.name), (&mask.xs, &mask.ys)),
-            ("scalar STBN, two offsets".to_owned(), (&stbn, &shifted)),
-            ("white pairs".to_owned(), (&white.0, &white.1)),
-        ];
-        let frames: Vec<usize> = [4, 16, d]
-            .into_iter()
-            .filter(|&n| n <= d)
-            .collect::<std::collections::BTreeSet<_>>()
-            .into_iter()
-            .collect();
-        let mut columns = vec![
-            Column::markdown_only("samples", false),
-            Column::markdown_only("filtered", true),
-        ];
-        for integrand in Integrand2D::ALL {
-            for n in &frames {
-                columns.push(Column::markdown_only(
-                    &format!("{} MC@{n}", integrand.name()),
-                    true,
-                ));
-                columns.push(Column::markdown_only(&format!("EMA@{n}"), true));
-            }
+    let shifted = toroidal_shift(&field(mask, &stbn)?, ox, oy);
+    let white = (white_noise(w, h, d, 1), white_noise(w, h, d, 2));
+    let rows = [
+        (format!("`{}`", mask.name), (&mask.xs, &mask.ys)),
+        ("scalar STBN, two offsets".to_owned(), (&stbn, &shifted)),
+        ("white pairs".to_owned(), (&white.0, &white.1)),
+    ];
+    let frames: Vec<usize> = [4, 16, d]
+        .into_iter()
+        .filter(|&n| n <= d)
+        .collect::<std::collections::BTreeSet<_>>()
+        .into_iter()
+        .collect();
+    let mut columns = vec![
+        Column::markdown_only("samples", false),
+        Column::markdown_only("filtered", true),
+    ];
+    for integrand in Integrand2D::ALL {
+        for n in &frames {
+            columns.push(Column::markdown_only(
+                &format!("{} MC@{n}", integrand.name()),
+                true,
+            ));
+            columns.push(Column::markdown_only(&format!("EMA@{n}"), true));
         }
-        let mut table = Table::with_columns(columns);
-        for (label, (xs, ys)) in rows {
-            let (xs, ys) = (field(mask, xs)?, field(mask, ys)?);
-            let filtered = filtered_error_vector(&[xs, ys], FilteredErrorOptions::default())
-                .map_err(|e| format!("{}: {e}", mask.name))?;
-            let mut cells = vec![Cell::text(label), Cell::fixed(filtered[d - 1], 5)];
-            for integrand in Integrand2D::ALL {
-                let curve = convergence_2d(&xs, &ys, integrand, ConvergenceOptions::new(d))
-                    .map_err(|e| format!("{}: {e}", mask.name))?;
-                for &n in &frames {
-                    cells.push(Cell::fixed(curve.monte_carlo[n - 1], 4));
-                    cells.push(Cell::fixed(curve.ema[n - 1], 4));
-                }
-            }
-            table.push(cells);
-        }
-        let _ = write!(
-            md,
-            "\n### `{}` ({w}×{h}×{d})\n\n{}",
-            mask.name,
-            table.markdown()
-        );
     }
+    let mut table = Table::with_columns(columns);
+    for (label, (xs, ys)) in rows {
+        let (xs, ys) = (field(mask, xs)?, field(mask, ys)?);
+        let filtered = filtered_error_vector(&[xs, ys], FilteredErrorOptions::default())
+            .map_err(|e| format!("{}: {e}", mask.name))?;
+        let mut cells = vec![Cell::text(label), Cell::fixed(filtered[d - 1], 5)];
+        for integrand in Integrand2D::ALL {
+            let curve = convergence_2d(&xs, &ys, integrand, ConvergenceOptions::new(d))
+                .map_err(|e| format!("{}: {e}", mask.name))?;
+            for &n in &frames {
+                cells.push(Cell::fixed(curve.monte_carlo[n - 1], 4));
+                cells.push(Cell::fixed(curve.ema[n - 1], 4));
+            }
+        }
+        table.push(cells);
+    }
+    let _ = write!(
+        md,
+        "\n### `{}` ({w}×{h}×{d})\n\n{}",
+        mask.name,
+        table.markdown()
+    );
     Ok(md)
 }
 
@@ -123,13 +122,14 @@ mod tests {
         let (w, h, d) = (8, 8, 4);
         let xs = white_noise(w, h, d, 11);
         let ys = white_noise(w, h, d, 12);
-        let md = section(&[PointMask {
-            name: "pts".into(),
-            size: (w, h, d),
-            xs,
-            ys,
-        }])
-        .unwrap();
+        let md = HEADING.to_owned()
+            + &mask_section(&PointMask {
+                name: "pts".into(),
+                size: (w, h, d),
+                xs,
+                ys,
+            })
+            .unwrap();
         let table: Vec<&str> = md.lines().filter(|l| l.starts_with('|')).collect();
         assert_eq!(table.len(), 5, "{md}"); // header, rule, three rows
         // Depth 4: frames {4} only; 3 integrands × (MC, EMA) + label + filtered.

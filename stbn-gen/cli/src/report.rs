@@ -8,6 +8,8 @@ mod spectrum_images;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
+use indicatif::{ProgressBar, ProgressStyle};
+
 use stbn_gen::analysis::{
     Convergence, ConvergenceOptions, Field, FilteredErrorOptions, Integrand, SpectrumImage,
     convergence, dft_xy_image, dft_xz_image, filtered_error, pixel_histogram_deviation,
@@ -28,7 +30,12 @@ pub const CONVERGENCE_SAMPLES: usize = 64;
 /// The sample counts the tables report convergence at.
 pub const CONVERGENCE_AT: [usize; 4] = [1, 4, 16, 64];
 
-/// One mask's figures and curves.
+/// Mask names `generate` refuses: the report's folders beside the mask folders (compared without
+/// case, for file systems that ignore it).
+pub const RESERVED_NAMES: [&str; 3] = [PLOT_DIR, spectrum_images::DFT_DIR, csv::CSV_DIR];
+
+/// One mask's figures and curves (a few kilobytes: its DFT images are written as they are
+/// measured, not kept).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Row {
     /// The mask's name.
@@ -49,10 +56,6 @@ pub struct Row {
     /// over the frames from uniform; `1/(2·frames)` at best, about `0.87/√frames` for white
     /// noise.
     pub pixel_histogram: f64,
-    /// [`dft_xy_image`]: mean DFT magnitude of the frames, centred (`width × height`).
-    pub dft_xy: SpectrumImage,
-    /// [`dft_xz_image`]: mean DFT magnitude of the x–frame planes, centred (`width × frames`).
-    pub dft_xz: SpectrumImage,
     /// [`radial_spectrum`]: normalised power per ring of radius `r` (cycles per longest side).
     pub radial: Vec<f64>,
     /// [`temporal_spectrum`]: normalised power per temporal frequency (cycles per `frames`).
@@ -67,26 +70,89 @@ pub struct Row {
     pub convergence_late: Vec<Convergence>,
 }
 
+/// The DFT magnitude images of one mask: [`dft_xy_image`] (mean over the frames, `width ×
+/// height`) and [`dft_xz_image`] (mean over the x–frame planes, `width × frames`), centred.
+pub struct Spectra {
+    /// XY.
+    pub xy: SpectrumImage,
+    /// XZ.
+    pub xz: SpectrumImage,
+}
+
+/// The steps of [`Row::measure_with_progress`], in order, named for a progress bar.
+const MEASURE_STEPS: [&str; 11] = [
+    "spatial low band",
+    "temporal low band",
+    "histograms",
+    "DFT XY",
+    "DFT XZ",
+    "radial spectrum",
+    "temporal spectrum",
+    "filtered error",
+    "convergence",
+    "convergence from frame ⌊frames/3⌋",
+    "done",
+];
+
 impl Row {
-    /// Measures `field`.
-    pub fn measure(name: &str, kind: &str, seconds: Option<f64>, field: &Field) -> Row {
-        Row {
+    /// Measures `field` (its DFT images too), without progress.
+    #[cfg(test)]
+    pub fn measure(name: &str, kind: &str, seconds: Option<f64>, field: &Field) -> (Row, Spectra) {
+        Self::measure_with_progress(name, kind, seconds, field, &mut |_, _| {})
+    }
+
+    /// [`Row::measure`], calling `progress(step, name)` before each of its steps and
+    /// `progress(steps, "done")` at the end (steps of [`MEASURE_STEPS`]).
+    fn measure_with_progress(
+        name: &str,
+        kind: &str,
+        seconds: Option<f64>,
+        field: &Field,
+        progress: &mut dyn FnMut(usize, &'static str),
+    ) -> (Row, Spectra) {
+        let mut step = 0;
+        let mut next = || {
+            progress(step, MEASURE_STEPS[step]);
+            step += 1;
+        };
+        next();
+        let spatial = spatial_low_band(field);
+        next();
+        let temporal = temporal_low_band(field);
+        next();
+        let histogram = slice_histogram_deviation(field, HISTOGRAM_BINS);
+        let pixel_histogram = pixel_histogram_deviation(field);
+        next();
+        let xy = dft_xy_image(field);
+        next();
+        let xz = dft_xz_image(field);
+        next();
+        let radial = radial_spectrum(field);
+        next();
+        let temporal_spectrum = temporal_spectrum(field);
+        next();
+        let filtered = filtered_error(field, FilteredErrorOptions::default());
+        next();
+        let convergence = converge(field, 0);
+        next();
+        let convergence_late = converge(field, field.depth() / 3);
+        next();
+        let row = Row {
             name: name.to_owned(),
             size: (field.width(), field.height(), field.depth()),
             kind: kind.to_owned(),
             seconds,
-            spatial: spatial_low_band(field),
-            temporal: temporal_low_band(field),
-            histogram: slice_histogram_deviation(field, HISTOGRAM_BINS),
-            pixel_histogram: pixel_histogram_deviation(field),
-            dft_xy: dft_xy_image(field),
-            dft_xz: dft_xz_image(field),
-            radial: radial_spectrum(field),
-            temporal_spectrum: temporal_spectrum(field),
-            filtered: filtered_error(field, FilteredErrorOptions::default()),
-            convergence: converge(field, 0),
-            convergence_late: converge(field, field.depth() / 3),
-        }
+            spatial,
+            temporal,
+            histogram,
+            pixel_histogram,
+            radial,
+            temporal_spectrum,
+            filtered,
+            convergence,
+            convergence_late,
+        };
+        (row, Spectra { xy, xz })
     }
 
     /// The filtered error of the last frame: the headline figure.
@@ -144,27 +210,104 @@ fn integrand_index(integrand: Integrand) -> usize {
         .expect("ALL holds every integrand")
 }
 
-/// Writes `<out>/report.md` (creating `out`) with `intro` above the figures of `rows`, and what
-/// it links to: plots in `<out>/plots/`, DFT images in `<out>/dft/` and CSV files in
-/// `<out>/csv/`; returns the report's path.
-pub fn write(out: &Path, intro: &str, rows: &[Row]) -> Result<PathBuf> {
-    let plot_dir = out.join(PLOT_DIR);
-    let dft_dir = out.join(spectrum_images::DFT_DIR);
-    for dir in [&plot_dir, &dft_dir] {
-        output::create_dir(dir)?;
+/// A report being written into a folder: each mask is measured and its DFT images written as
+/// it comes ([`Report::measure`]), so only its figures are kept; [`Report::finish`] writes the
+/// plots, the CSV files and `report.md`.
+pub struct Report {
+    out: PathBuf,
+    rows: Vec<Row>,
+}
+
+impl Report {
+    /// A report in `out` (created, with its `plots/` and `dft/` folders).
+    pub fn create(out: &Path) -> Result<Report> {
+        for dir in [out.join(PLOT_DIR), out.join(spectrum_images::DFT_DIR)] {
+            output::create_dir(&dir)?;
+        }
+        Ok(Report {
+            out: out.to_owned(),
+            rows: Vec::new(),
+        })
     }
-    for Figure { file, chart, .. } in figures(rows) {
-        chart.write_png(&plot_dir.join(file))?;
+
+    /// Measures `field` as mask `name` with a progress bar (on a terminal), writes its DFT
+    /// images and keeps its figures; returns them.
+    pub fn measure(
+        &mut self,
+        name: &str,
+        kind: &str,
+        seconds: Option<f64>,
+        field: &Field,
+    ) -> Result<&Row> {
+        let bar = bar(
+            MEASURE_STEPS.len() as u64 - 1,
+            &format!("{name}: measuring"),
+            "{prefix} [{bar:30}] {pos}/{len} {msg} {elapsed_precise}",
+        );
+        bar.enable_steady_tick(std::time::Duration::from_millis(200));
+        let (row, spectra) =
+            Row::measure_with_progress(name, kind, seconds, field, &mut |step, what| {
+                bar.set_position(step as u64);
+                bar.set_message(what);
+            });
+        bar.finish_and_clear();
+        self.push(row, &spectra)?;
+        Ok(self.rows.last().expect("a row was pushed"))
     }
-    for (i, row) in rows.iter().enumerate() {
-        let [xy, xz] = dft_files(i, row);
-        spectrum_images::write(&row.dft_xy, &dft_dir.join(xy))?;
-        spectrum_images::write(&row.dft_xz, &dft_dir.join(xz))?;
+
+    /// Adds a measured mask: writes its DFT images and keeps `row`.
+    pub fn push(&mut self, row: Row, spectra: &Spectra) -> Result<()> {
+        let dft_dir = self.out.join(spectrum_images::DFT_DIR);
+        let [xy, xz] = dft_files(self.rows.len(), &row);
+        spectrum_images::write(&spectra.xy, &dft_dir.join(xy))?;
+        spectrum_images::write(&spectra.xz, &dft_dir.join(xz))?;
+        self.rows.push(row);
+        Ok(())
     }
-    csv::write(out, rows)?;
-    let path = out.join("report.md");
-    output::write_text(&path, &markdown(intro, rows))?;
-    Ok(path)
+
+    /// Writes the plots in `plots/`, the CSV files in `csv/` and `report.md`, with `intro`
+    /// above the figures and `sections` (markdown) at the end; returns the report's path.
+    pub fn finish(self, intro: &str, sections: &str) -> Result<PathBuf> {
+        let figures = figures(&self.rows);
+        let bar = bar(
+            figures.len() as u64 + 2,
+            "report: writing",
+            "{prefix} [{bar:30}] {pos}/{len} files {elapsed_precise}",
+        );
+        let plot_dir = self.out.join(PLOT_DIR);
+        for Figure { file, chart, .. } in figures {
+            chart.write_png(&plot_dir.join(file))?;
+            bar.inc(1);
+        }
+        csv::write(&self.out, &self.rows)?;
+        bar.inc(1);
+        let path = self.out.join("report.md");
+        output::write_text(&path, &(markdown(intro, &self.rows) + sections))?;
+        bar.finish_and_clear();
+        Ok(path)
+    }
+
+    /// The names of what the report writes in its folder, report.md last.
+    pub fn files() -> [String; 4] {
+        [
+            PLOT_DIR,
+            spectrum_images::DFT_DIR,
+            csv::CSV_DIR,
+            "report.md",
+        ]
+        .map(str::to_owned)
+    }
+}
+
+/// A progress bar of `len` steps with `template` and `prefix`, drawn only on a terminal.
+pub fn bar(len: u64, prefix: &str, template: &str) -> ProgressBar {
+    ProgressBar::new(len)
+        .with_style(
+            ProgressStyle::with_template(template)
+                .expect("the template is valid")
+                .progress_chars("=> "),
+        )
+        .with_prefix(prefix.to_owned())
 }
 
 /// The XY and XZ image files of `rows[index]` in [`spectrum_images::DFT_DIR`]:
@@ -644,7 +787,7 @@ mod tests {
             histogram: 0.0,
             pixel_histogram: 0.25,
             filtered: vec![0.5, 0.012345],
-            ..Row::measure(name, "png 8-bit", seconds, &field)
+            ..Row::measure(name, "png 8-bit", seconds, &field).0
         }
     }
 
@@ -694,7 +837,9 @@ mod tests {
     fn measure_reads_the_field() {
         let values: Vec<f64> = (0..64).map(|i| (i as f64 + 0.5) / 64.0).collect();
         let field = Field::new(8, 8, 1, &values).unwrap();
-        let row = Row::measure("ramp", "png 8-bit", None, &field);
+        let (row, spectra) = Row::measure("ramp", "png 8-bit", None, &field);
+        assert_eq!((spectra.xy.width, spectra.xy.height), (8, 8));
+        assert_eq!((spectra.xz.width, spectra.xz.height), (8, 1));
         assert_eq!(row.size, (8, 8, 1));
         assert_eq!(row.temporal, None);
         assert_eq!(row.histogram, 0.0);
@@ -712,7 +857,13 @@ mod tests {
     fn write_creates_the_report_and_every_linked_file() {
         let dir = tempfile::tempdir().unwrap();
         let rows = [row("a", None, None), row("b", Some(1.0), Some(0.3))];
-        let path = write(dir.path(), "Intro.", &rows).unwrap();
+        let values = ramp_field();
+        let (_, spectra) = Row::measure("x", "", None, &Field::new(8, 8, 4, &values).unwrap());
+        let mut report = Report::create(dir.path()).unwrap();
+        for row in &rows {
+            report.push(row.clone(), &spectra).unwrap();
+        }
+        let path = report.finish("Intro.", "").unwrap();
         let text = fs::read_to_string(path).unwrap();
         // Every `](target)` of the report: plots, DFT images and CSV files.
         let links: Vec<&str> = text
