@@ -13,6 +13,8 @@
 //! holds); a figure that does not exist (e.g. the temporal low band of a single frame) is an
 //! empty field.
 
+use std::fs::OpenOptions;
+use std::io::Write as _;
 use std::path::Path;
 
 use stbn_gen::analysis::Integrand;
@@ -141,12 +143,30 @@ pub fn files(rows: &[Row]) -> Vec<CsvFile> {
     ]
 }
 
-/// Writes every CSV file of `rows` into `<out>/`[`CSV_DIR`] (creating it).
+/// Writes every CSV file of `rows` into `<out>/`[`CSV_DIR`] (creating it), one mask at a time:
+/// the cells of a file (768 convergence rows per mask) are never all in memory at once.
 pub fn write(out: &Path, rows: &[Row]) -> Result<()> {
     let dir = out.join(CSV_DIR);
     output::create_dir(&dir)?;
-    for file in files(rows) {
-        file.table.write_csv(&dir.join(file.name))?;
+    let mut outputs = Vec::new();
+    for file in files(&[]) {
+        let path = dir.join(file.name);
+        // The table of no mask is the header line.
+        output::write_text(&path, &file.table.csv())?;
+        let opened = OpenOptions::new().append(true).open(&path);
+        outputs.push((
+            opened.map_err(|e| format!("cannot write {}: {e}", path.display()))?,
+            path,
+        ));
+    }
+    for row in rows {
+        for (file, (handle, path)) in files(std::slice::from_ref(row)).iter().zip(&mut outputs) {
+            let text = file.table.csv();
+            let body = text.split_once('\n').map_or("", |(_, body)| body);
+            handle
+                .write_all(body.as_bytes())
+                .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        }
     }
     Ok(())
 }
