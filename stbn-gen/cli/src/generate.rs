@@ -189,6 +189,7 @@ fn make(entry: &MaskEntry) -> Result<(Generated, Vec<u8>)> {
     let generated = if let Some((spec, space)) = entry.filter_adapted_spec() {
         let passes = spec.swaps_per_pixel.ceil() as u64;
         let bar = report::bar(passes, &entry.name, passes_template);
+        bar.set_message(format!("0/{passes}"));
         let mut progress = |p: stbn_gen::filter_adapted::FilterAdaptedProgress| {
             bar.set_position(p.passes_done);
             bar.set_message(format!("{}/{passes}", p.passes_done));
@@ -215,6 +216,7 @@ fn make(entry: &MaskEntry) -> Result<(Generated, Vec<u8>)> {
         // Quarter passes: the optimiser reports after each.
         let passes = spec.swaps_per_pixel.ceil() as u64 + u64::from(spec.assignment_passes);
         let bar = report::bar(4 * passes, &entry.name, passes_template);
+        bar.set_message(format!("0/{passes}"));
         let (volume, trace) = stbn_gen::generate_vector_with_progress(&spec, &mut |p| {
             bar.set_position((4.0 * p.passes_done) as u64);
             bar.set_message(format!("{:.2}/{}", p.passes_done, p.passes));
