@@ -20,6 +20,8 @@ mod extremum;
 pub mod filter_adapted;
 pub mod importance;
 pub mod kernel;
+mod rng;
+mod schedule;
 pub mod space;
 pub mod spec;
 pub mod swap;

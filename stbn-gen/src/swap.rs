@@ -114,13 +114,15 @@
 //! passes").
 
 use std::collections::BTreeMap;
-use std::sync::atomic::{AtomicU32, AtomicU64, Ordering::Relaxed};
 
 use rand::seq::SliceRandom;
-use rand::{Rng, RngExt, SeedableRng};
-use rand_chacha::ChaCha8Rng;
+
 use rayon::prelude::*;
 
+use rand_chacha::ChaCha8Rng;
+
+use crate::rng::{self, other_index};
+use crate::schedule::{self, Layout, PassKey, SpanStart, Tile, TileOptimizer};
 use crate::vector::{TracePoint, VectorSpec};
 
 /// Preferred tile side in pixels (tiles are never narrower than twice the kernel's reach): 16
@@ -150,25 +152,6 @@ const LANES: usize = 4;
 /// Padding of the neighbour buffers: the value factor loop runs whole chunks of this many
 /// entries (`f32` lanes of an AVX-512 register, two AVX2 ones).
 const FACTOR_LANES: usize = 16;
-
-/// Domain tags that keep the random streams of one seed apart.
-pub(crate) mod stream {
-    /// Initial stratified values, one stream per slice.
-    pub const INIT: u64 = 1;
-    /// Tile grid offsets of a pass.
-    pub const GRID: u64 = 2;
-    /// Swap proposals of one tile of one pass.
-    pub const TILE: u64 = 3;
-}
-
-/// A ChaCha8 generator keyed by `(seed, domain, a, b)`: distinct keys give independent streams.
-pub(crate) fn keyed_rng(seed: u64, domain: u64, a: u64, b: u64) -> ChaCha8Rng {
-    let mut key = [0u8; 32];
-    for (chunk, word) in key.chunks_exact_mut(8).zip([seed, domain, a, b]) {
-        chunk.copy_from_slice(&word.to_le_bytes());
-    }
-    ChaCha8Rng::from_seed(key)
-}
 
 /// `e^−x` for `x ≥ 0` (`+∞` allowed), to within a few units in the last place; results below
 /// `e^−708` come out as `e^−708` (≈ 3·10⁻³⁰⁸). Basic IEEE operations only, so bit-identical on
@@ -302,12 +285,8 @@ pub struct SwapKernel {
     dims: usize,
     /// Same-slice neighbours: canonical `(dx, dy)` (never `(0, 0)`), weight.
     spatial: Vec<(i32, i32, f64)>,
-    /// `dy · width + dx` of each spatial tap, for pixels away from the slice edges.
-    spatial_step: Vec<isize>,
     /// Same-position neighbours: canonical `dz` (never 0), weight.
     temporal: Vec<(i32, f64)>,
-    /// Per slice `z`, the index step to each temporal neighbour (`slice_pixels · (z' − z)`).
-    temporal_step: Vec<Vec<isize>>,
     /// Extremes of the spatial taps' `dx` and `dy`.
     dx_range: (i32, i32),
     dy_range: (i32, i32),
@@ -367,21 +346,6 @@ impl SwapKernel {
             .map(|((dx, dy), e)| (dx, dy, e))
             .collect();
         let temporal: Vec<(i32, f64)> = temporal.into_iter().collect();
-        let slice = w as isize * h as isize;
-        let spatial_step = spatial
-            .iter()
-            .map(|&(dx, dy, _)| dy as isize * w as isize + dx as isize)
-            .collect();
-        let temporal_step = (0..d as i64)
-            .map(|z| {
-                temporal
-                    .iter()
-                    .map(|&(dz, _)| {
-                        ((z + i64::from(dz)).rem_euclid(i64::from(d)) - z) as isize * slice
-                    })
-                    .collect()
-            })
-            .collect();
         let range = |f: fn(&(i32, i32, f64)) -> i32| {
             let it = || spatial.iter().map(f);
             (it().min().unwrap_or(0), it().max().unwrap_or(0))
@@ -403,8 +367,6 @@ impl SwapKernel {
             dx_range,
             dy_range,
             tap_at_offset,
-            spatial_step,
-            temporal_step,
             spatial,
             temporal,
             inv_sigma_value_sq: (1.0 / (spec.sigma_value * spec.sigma_value)) as f32,
@@ -438,6 +400,29 @@ impl SwapKernel {
 
     fn slice_pixels(&self) -> usize {
         self.width as usize * self.height as usize
+    }
+
+    /// The index steps to every tap's neighbour in a block of `width × height` pixels per slice
+    /// and the kernel's depth.
+    fn steps(&self, width: u32, height: u32) -> Steps {
+        let depth = i64::from(self.depth);
+        let slice = width as isize * height as isize;
+        Steps {
+            width,
+            height,
+            spatial: self
+                .spatial
+                .iter()
+                .map(|&(dx, dy, _)| dy as isize * width as isize + dx as isize)
+                .collect(),
+            temporal: (0..depth)
+                .flat_map(|z| {
+                    self.temporal.iter().map(move |&(dz, _)| {
+                        ((z + i64::from(dz)).rem_euclid(depth) - z) as isize * slice
+                    })
+                })
+                .collect(),
+        }
     }
 
     /// The mask's energy computed from scratch: `½ Σ_p e(p)` over the
@@ -477,6 +462,8 @@ impl SwapKernel {
         let (w, h) = (self.width as i64, self.height as i64);
         let slice = self.slice_pixels();
         let value = |i: usize| -> [f32; D] { std::array::from_fn(|c| values[i * D + c]) };
+        let steps = self.steps(self.width, self.height);
+        let taps = self.temporal.len();
         let mut energies = vec![0.0; slice * self.depth as usize];
         energies
             .par_chunks_mut(slice)
@@ -499,7 +486,8 @@ impl SwapKernel {
                             let ny = (y + i64::from(dy)).rem_euclid(h);
                             sum += wt * pair(z * slice + (ny * w + nx) as usize);
                         }
-                        for (&(_, wt), &step) in self.temporal.iter().zip(&self.temporal_step[z]) {
+                        let temporal_steps = &steps.temporal[z * taps..(z + 1) * taps];
+                        for (&(_, wt), &step) in self.temporal.iter().zip(temporal_steps) {
                             sum += wt * pair((p as isize + step) as usize);
                         }
                         out[(y * w + x) as usize] = sum;
@@ -587,60 +575,48 @@ impl Scratch {
     }
 }
 
-/// The values and pixel energies the tiles share (see the [module docs](self)).
-///
-/// Invariant (what [`Shared::value`]'s plain reads rely on): no pixel is written by one thread
-/// while another reads or writes it. The tile colouring guarantees it during a pass; anything
-/// that runs tiles concurrently must keep it. Writes are relaxed atomic stores (plain stores
-/// once compiled), which make that sharing expressible; the hot reads of values are plain
-/// loads.
-struct Shared<'s> {
-    /// `f32` bits, index `pixel · dims + c`.
-    values: &'s [AtomicU32],
-    /// `f64` bits of each pixel's energy `e(p)`.
-    energy: &'s [AtomicU64],
+/// Index steps from a pixel to its neighbours in a block of pixels: `width × height` per slice,
+/// every slice (the volume, or a tile's region).
+struct Steps {
+    /// Pixels per row and rows per slice of the block.
+    width: u32,
+    height: u32,
+    /// `dy · width + dx` of each spatial tap, for pixels whose taps stay inside the block.
+    spatial: Vec<isize>,
+    /// From slice `z`, the step to each temporal neighbour, `width · height · (z' − z)`: index
+    /// `z · temporal taps + k`.
+    temporal: Vec<isize>,
 }
 
-impl Shared<'_> {
-    /// The value of `pixel`, read with plain (not atomic) loads: atomic ones, even relaxed,
-    /// keep the compiler from unrolling and scheduling the optimiser's hot loops. Plain loads
-    /// made whole runs 4–12% faster (64×64×32, 32 swaps/px, one thread, AVX-512, eight
-    /// alternating runs, medians: Vec2 2.25 → 2.15 s, UnitVec3 2.15 → 1.9 s; the VM's speed
-    /// drifts from one set of runs to the next, so compare figures within a set only).
+/// Values and pixel energies of a block of pixels: the whole volume (the optimiser's state) or a
+/// tile's private copy of its region ([`crate::schedule`]), indexed as its [`Steps`] say.
+struct Region {
+    steps: Steps,
+    /// `f32` components, index `pixel · dims + c`, pixel `(z · height + y) · width + x`.
+    values: Vec<f32>,
+    /// Each pixel's energy `e(p)`.
+    energy: Vec<f64>,
+}
+
+impl Region {
+    /// The value of `pixel`.
     #[inline(always)]
     fn value<const D: usize>(&self, pixel: usize) -> [f32; D] {
-        std::array::from_fn(|c| {
-            let bits = self.values[pixel * D + c].as_ptr();
-            // SAFETY: `bits` points to a live `u32` (a bounds-checked element). No other thread
-            // writes it now. In a pass, a tile reads only its own pixels and their neighbours,
-            // which the tile colouring (module docs, `tiles_along`) keeps away from every pixel
-            // another tile of its colour writes, and the colour phases are joined one after the
-            // other. Outside passes (`swap_delta`, `try_swap`) the `Shared` is built from
-            // `&self` or `&mut self`, so no other thread holds the values. A plain read that
-            // races with no write is defined, even though the writes are atomic.
-            f32::from_bits(unsafe { bits.read() })
-        })
+        value_at::<D>(&self.values, pixel)
     }
 
+    /// Index of pixel `(x, y)` of slice `z`.
     #[inline(always)]
-    fn swap_values<const D: usize>(&self, a: usize, b: usize) {
-        for c in 0..D {
-            let (ia, ib) = (a * D + c, b * D + c);
-            let va = self.values[ia].load(Relaxed);
-            self.values[ia].store(self.values[ib].load(Relaxed), Relaxed);
-            self.values[ib].store(va, Relaxed);
-        }
+    fn index(&self, (x, y): (u32, u32), z: u32) -> usize {
+        let (w, h) = (self.steps.width as usize, self.steps.height as usize);
+        (z as usize * h + y as usize) * w + x as usize
     }
+}
 
-    #[inline(always)]
-    fn energy(&self, pixel: usize) -> f64 {
-        f64::from_bits(self.energy[pixel].load(Relaxed))
-    }
-
-    #[inline(always)]
-    fn set_energy(&self, pixel: usize, e: f64) {
-        self.energy[pixel].store(e.to_bits(), Relaxed);
-    }
+/// The value of `pixel` in `values` (`D` components per pixel).
+#[inline(always)]
+fn value_at<const D: usize>(values: &[f32], pixel: usize) -> [f32; D] {
+    std::array::from_fn(|c| values[pixel * D + c])
 }
 
 /// `Σ x` with four interleaved partial sums (a fixed order: deterministic).
@@ -679,53 +655,55 @@ fn value_factors<const D: usize>(distance: &[f32], factor: &mut [f32], inv_sigma
 }
 
 impl SwapKernel {
-    /// Whether every spatial tap of pixel `(x, y)` lies inside the slice without wrapping.
+    /// Whether every spatial tap of pixel `(x, y)` lies inside the block of `steps` without
+    /// wrapping (in a tile's region, every pixel of the tile along an axis the region does not
+    /// span).
     #[inline(always)]
-    fn is_interior(&self, x: u32, y: u32) -> bool {
+    fn is_interior(&self, steps: &Steps, x: u32, y: u32) -> bool {
         let (xi, yi) = (x as i32, y as i32);
         xi + self.dx_range.0 >= 0
-            && xi + self.dx_range.1 < self.width as i32
+            && xi + self.dx_range.1 < steps.width as i32
             && yi + self.dy_range.0 >= 0
-            && yi + self.dy_range.1 < self.height as i32
+            && yi + self.dy_range.1 < steps.height as i32
     }
 
     /// Calls `visit(k, n)` for each neighbour `n` of pixel `(x, y)` of slice `z` (index
-    /// `centre`), `k` its tap number: the spatial taps in the kernel's order, then the temporal
-    /// ones.
+    /// `centre`) in the block of `steps`, `k` its tap number: the spatial taps in the kernel's
+    /// order, then the temporal ones. Taps that leave the block wrap around it (only where it
+    /// spans an axis of the volume).
     #[inline(always)]
     fn for_each_neighbour(
         &self,
+        steps: &Steps,
         (x, y, z): (u32, u32, u32),
         centre: usize,
         mut visit: impl FnMut(usize, usize),
     ) {
-        if self.is_interior(x, y) {
-            for (k, &step) in self.spatial_step.iter().enumerate() {
+        if self.is_interior(steps, x, y) {
+            for (k, &step) in steps.spatial.iter().enumerate() {
                 visit(k, (centre as isize + step) as usize);
             }
         } else {
-            let wrap = |t: i32, size: i32| {
-                if t < 0 {
-                    t + size
-                } else if t >= size {
-                    t - size
-                } else {
-                    t
-                }
-            };
             let (xi, yi) = (x as i32, y as i32);
-            let (w, h) = (self.width as i32, self.height as i32);
-            let row0 = centre - (y as usize * self.width as usize + x as usize);
+            let width = steps.width as usize;
+            let row0 = centre - (y as usize * width + x as usize);
             for (k, &(dx, dy, _)) in self.spatial.iter().enumerate() {
-                let nx = wrap(xi + dx, w) as usize;
-                let ny = wrap(yi + dy, h) as usize;
-                visit(k, row0 + ny * self.width as usize + nx);
+                let nx = wrap(xi + dx, steps.width) as usize;
+                let ny = wrap(yi + dy, steps.height) as usize;
+                visit(k, row0 + ny * width + nx);
             }
         }
         let first = self.spatial.len();
-        for (k, &step) in self.temporal_step[z as usize].iter().enumerate() {
+        for (k, &step) in self.temporal_steps(steps, z).iter().enumerate() {
             visit(first + k, (centre as isize + step) as usize);
         }
+    }
+
+    /// The steps to the temporal neighbours of a pixel of slice `z`.
+    #[inline(always)]
+    fn temporal_steps<'s>(&self, steps: &'s Steps, z: u32) -> &'s [isize] {
+        let taps = self.temporal.len();
+        &steps.temporal[z as usize * taps..(z as usize + 1) * taps]
     }
 
     /// `out[k] = ‖value − Vn‖²` for each neighbour `n` (tap `k`) of pixel `(x, y)` of slice `z`:
@@ -735,31 +713,34 @@ impl SwapKernel {
     #[inline(always)]
     fn gather<const D: usize>(
         &self,
-        shared: &Shared,
+        region: &Region,
         at: (u32, u32, u32),
         centre: usize,
         value: &[f32; D],
         out: &mut [f32],
     ) {
         let (x, y, z) = at;
-        if self.is_interior(x, y) {
-            for (o, &step) in out.iter_mut().zip(&self.spatial_step) {
+        let steps = &region.steps;
+        if self.is_interior(steps, x, y) {
+            for (o, &step) in out.iter_mut().zip(&steps.spatial) {
                 let n = centre.wrapping_add_signed(step);
-                *o = squared_distance(value, &shared.value::<D>(n));
+                *o = squared_distance(value, &region.value::<D>(n));
             }
             let first = self.spatial.len();
-            for (k, &step) in self.temporal_step[z as usize].iter().enumerate() {
+            for (k, &step) in self.temporal_steps(steps, z).iter().enumerate() {
                 let n = centre.wrapping_add_signed(step);
-                out[first + k] = squared_distance(value, &shared.value::<D>(n));
+                out[first + k] = squared_distance(value, &region.value::<D>(n));
             }
             return;
         }
-        self.for_each_neighbour(at, centre, |k, n| {
-            out[k] = squared_distance(value, &shared.value::<D>(n));
+        self.for_each_neighbour(steps, at, centre, |k, n| {
+            out[k] = squared_distance(value, &region.value::<D>(n));
         });
     }
 
     /// The spatial tap from pixel `from` to pixel `to` of the same slice, if they interact.
+    /// Coordinates are in the volume or in one tile's region: the offset is taken modulo the
+    /// volume, which a region either spans or holds without wrapping.
     #[inline(always)]
     fn spatial_tap(&self, from: (u32, u32), to: (u32, u32)) -> Option<usize> {
         let dx = canonical(i64::from(to.0) - i64::from(from.0), self.width);
@@ -773,33 +754,33 @@ impl SwapKernel {
         (tap != u32::MAX).then_some(tap as usize)
     }
 
-    /// The exact energy change of swapping the values of pixels `a` and `b` of slice `z`, from
-    /// the cached energies `e(a)`, `e(b)` and the pair energies after the swap. Leaves in
-    /// `scratch` what [`SwapKernel::apply`] needs. Returns the delta and the two indices.
+    /// The exact energy change of swapping the values of pixels `a` and `b` of slice `z` of
+    /// `region`, from the cached energies `e(a)`, `e(b)` and the pair energies after the swap.
+    /// Leaves in `scratch` what [`SwapKernel::apply`] needs. Returns the delta and the two
+    /// indices.
     ///
     /// `ΔE = Σ_{n ∈ N(a)∖b} w f(‖vb − vn‖²) − (e(a) − w_ab f_ab)` plus the same for `b`: the
     /// pairs of `a` and of `b` change, except the pair `(a, b)` (energy `w_ab f_ab`, symmetric).
     #[inline(always)]
     fn delta<const D: usize>(
         &self,
-        shared: &Shared,
+        region: &Region,
         z: u32,
         a: (u32, u32),
         b: (u32, u32),
         scratch: &mut Scratch,
     ) -> (f64, usize, usize) {
-        let base = z as usize * self.slice_pixels();
-        let ia = base + a.1 as usize * self.width as usize + a.0 as usize;
-        let ib = base + b.1 as usize * self.width as usize + b.0 as usize;
-        let va = shared.value::<D>(ia);
-        let vb = shared.value::<D>(ib);
+        let ia = region.index(a, z);
+        let ib = region.index(b, z);
+        let va = region.value::<D>(ia);
+        let vb = region.value::<D>(ib);
         if ia == ib || va == vb {
             return (0.0, ia, ib);
         }
         let taps = scratch.taps;
         let (after_a, after_b) = scratch.after.split_at_mut(taps);
-        self.gather::<D>(shared, (a.0, a.1, z), ia, &vb, after_a);
-        self.gather::<D>(shared, (b.0, b.1, z), ib, &va, after_b);
+        self.gather::<D>(region, (a.0, a.1, z), ia, &vb, after_a);
+        self.gather::<D>(region, (b.0, b.1, z), ib, &va, after_b);
         let inv = self.inv_sigma_value_sq;
         value_factors::<D>(&scratch.after, &mut scratch.factor, inv);
         scratch.pair = self
@@ -815,7 +796,7 @@ impl SwapKernel {
             }
             None => 0.0,
         };
-        let delta = after - (shared.energy(ia) + shared.energy(ib)) + 2.0 * scratch.pair_energy;
+        let delta = after - (region.energy[ia] + region.energy[ib]) + 2.0 * scratch.pair_energy;
         (delta, ia, ib)
     }
 
@@ -825,7 +806,7 @@ impl SwapKernel {
     #[inline(always)]
     fn apply<const D: usize>(
         &self,
-        shared: &Shared,
+        region: &mut Region,
         z: u32,
         (a, b): ((u32, u32), (u32, u32)),
         (ia, ib): (usize, usize),
@@ -834,12 +815,12 @@ impl SwapKernel {
         let (taps, count) = (scratch.taps, scratch.len);
         let e_a = lane_sum(&scratch.term[..taps]);
         let e_b = lane_sum(&scratch.term[taps..count]);
-        let (va, vb) = (shared.value::<D>(ia), shared.value::<D>(ib));
+        let (va, vb) = (region.value::<D>(ia), region.value::<D>(ib));
         for (centre, at, value, first) in [(ia, a, &va, 0), (ib, b, &vb, taps)] {
             let (index, before) = (&mut scratch.index, &mut scratch.before);
-            self.for_each_neighbour((at.0, at.1, z), centre, |k, n| {
+            self.for_each_neighbour(&region.steps, (at.0, at.1, z), centre, |k, n| {
                 index[first + k] = n;
-                before[first + k] = squared_distance(value, &shared.value::<D>(n));
+                before[first + k] = squared_distance(value, &region.value::<D>(n));
             });
         }
         value_factors::<D>(
@@ -855,13 +836,14 @@ impl SwapKernel {
         let (ka, kb) = scratch.pair.unwrap_or((usize::MAX, usize::MAX));
         for k in 0..count {
             if k != ka && k != kb {
-                let n = scratch.index[k];
-                shared.set_energy(n, shared.energy(n) + scratch.term[k]);
+                region.energy[scratch.index[k]] += scratch.term[k];
             }
         }
-        shared.set_energy(ia, e_a + scratch.pair_energy);
-        shared.set_energy(ib, e_b + scratch.pair_energy);
-        shared.swap_values::<D>(ia, ib);
+        region.energy[ia] = e_a + scratch.pair_energy;
+        region.energy[ib] = e_b + scratch.pair_energy;
+        for c in 0..D {
+            region.values.swap(ia * D + c, ib * D + c);
+        }
     }
 
     /// Swaps `a` and `b` of slice `z` if that lowers the energy by more than the margin; returns
@@ -869,15 +851,15 @@ impl SwapKernel {
     #[inline(always)]
     fn attempt<const D: usize>(
         &self,
-        shared: &Shared,
+        region: &mut Region,
         z: u32,
         a: (u32, u32),
         b: (u32, u32),
         scratch: &mut Scratch,
     ) -> Option<f64> {
-        let (delta, ia, ib) = self.delta::<D>(shared, z, a, b, scratch);
+        let (delta, ia, ib) = self.delta::<D>(region, z, a, b, scratch);
         if delta < -self.margin {
-            self.apply::<D>(shared, z, (a, b), (ia, ib), scratch);
+            self.apply::<D>(region, z, (a, b), (ia, ib), scratch);
             Some(delta)
         } else {
             None
@@ -885,63 +867,21 @@ impl SwapKernel {
     }
 }
 
-/// One tile of a pass: columns `x0..x0 + w` and rows `y0..y0 + h` (both mod the slice size) in
-/// every slice.
-#[derive(Clone, Copy, Debug)]
-struct Tile {
-    x0: u32,
-    y0: u32,
-    w: u32,
-    h: u32,
-    colour: u8,
-    id: u64,
-}
-
-impl Tile {
-    /// Pixel `i` of the tile (row by row), as `(x, y)` in a `width × height` slice.
-    #[inline(always)]
-    fn pixel(&self, i: u32, width: u32, height: u32) -> (u32, u32) {
-        (
-            (self.x0 + i % self.w) % width,
-            (self.y0 + i / self.w) % height,
-        )
-    }
-
-    /// Each tile pixel's index within its `width × height` slice, in [`Tile::pixel`]'s order.
-    fn slice_indices(&self, width: u32, height: u32) -> Vec<usize> {
-        (0..self.w * self.h)
-            .map(|i| {
-                let (x, y) = self.pixel(i, width, height);
-                y as usize * width as usize + x as usize
-            })
-            .collect()
-    }
-}
-
-/// A uniform index in `0..n` other than `i` (`n ≥ 2`), from one `u32` of `rng` (multiply-shift,
-/// bias below 2⁻¹⁶ for the tile sizes here). Shared with the filter-adapted optimiser, whose
-/// partners are drawn the same way.
+/// `t` wrapped into `0..size`, for `t` in `−size..2 · size`.
 #[inline(always)]
-pub(crate) fn other_index(rng: &mut ChaCha8Rng, i: u32, n: u32) -> u32 {
-    let j = ((u64::from(rng.next_u32()) * u64::from(n - 1)) >> 32) as u32;
-    if j >= i { j + 1 } else { j }
+fn wrap(t: i32, size: u32) -> i32 {
+    let size = size as i32;
+    if t < 0 {
+        t + size
+    } else if t >= size {
+        t - size
+    } else {
+        t
+    }
 }
 
-/// Tiles along an axis of `size` pixels: an even count whose tiles are all at least `2 · reach`
-/// wide, near `size / target`; 1 when the axis is too short for two. Two tiles of one colour are
-/// then separated by more than twice the reach: neither reads a pixel the other writes, and the
-/// neighbours whose energies they update (within the reach of a swapped pixel) are distinct.
-/// Shared with the filter-adapted optimiser, whose tiles follow the same rule.
-pub(crate) fn tiles_along(size: u32, reach: u32, target: u32) -> u32 {
-    let max_tiles = size / (2 * reach).max(1);
-    let want = (size / target.max(1)).max(2).min(max_tiles);
-    if want >= 2 { want & !1 } else { 1 }
-}
-
-/// What every tile of one pass needs besides its own coordinates.
-struct PassPlan {
-    seed: u64,
-    pass: u64,
+/// What every tile of one pass needs besides its coordinates and random stream.
+pub(crate) struct PassPlan {
     /// Share of each tile's pixels that propose, in `[0, 1]`.
     fraction: f64,
     /// Candidates per proposal in this pass ([`partner_candidates`]).
@@ -958,15 +898,18 @@ struct TileResult {
     delta: f64,
 }
 
-/// The optimiser's state: the values and pixel energies (shared between the tiles of one colour,
-/// see the [module docs](self)), the running energy and counters.
+/// One tile's private copy of its region after its moves, and its totals.
+pub(crate) struct TileOutcome {
+    region: Region,
+    result: TileResult,
+}
+
+/// The optimiser's state: the values and pixel energies, the running energy and counters.
 pub struct SwapOptimizer {
     kernel: SwapKernel,
-    /// `f32` bits, index `pixel · dims + c`.
-    values: Vec<AtomicU32>,
-    /// `f64` bits of each pixel's energy `e(p)` ([`SwapKernel::pixel_energies`]), kept up to date
-    /// by every accepted swap.
-    pixel_energy: Vec<AtomicU64>,
+    /// The whole volume: the values and each pixel's energy `e(p)`
+    /// ([`SwapKernel::pixel_energies`]), kept up to date by every accepted swap.
+    state: Region,
     seed: u64,
     passes: u64,
     energy: f64,
@@ -991,15 +934,12 @@ impl SwapOptimizer {
             .collect();
         let energy = 0.5 * per_slice.iter().sum::<f64>();
         SwapOptimizer {
+            state: Region {
+                steps: kernel.steps(kernel.width, kernel.height),
+                values,
+                energy: pixel_energy,
+            },
             kernel,
-            values: values
-                .into_iter()
-                .map(|v| AtomicU32::new(v.to_bits()))
-                .collect(),
-            pixel_energy: pixel_energy
-                .into_iter()
-                .map(|e| AtomicU64::new(e.to_bits()))
-                .collect(),
             seed: spec.seed,
             passes: 0,
             energy,
@@ -1037,17 +977,17 @@ impl SwapOptimizer {
 
     /// The energy of the current values computed from scratch ([`SwapKernel::energy`]).
     pub fn recompute_energy(&self) -> f64 {
-        self.kernel.energy(&self.values())
+        self.kernel.energy(&self.state.values)
     }
 
     /// The largest difference between a cached pixel energy and its value computed from
     /// scratch: the rounding the incremental updates have accumulated.
     pub fn pixel_energy_drift(&self) -> f64 {
-        let exact = self.kernel.pixel_energies(&self.values());
+        let exact = self.kernel.pixel_energies(&self.state.values);
         exact
             .iter()
-            .zip(&self.pixel_energy)
-            .map(|(&e, cached)| (e - f64::from_bits(cached.load(Relaxed))).abs())
+            .zip(&self.state.energy)
+            .map(|(&e, &cached)| (e - cached).abs())
             .fold(0.0, f64::max)
     }
 
@@ -1063,25 +1003,12 @@ impl SwapOptimizer {
 
     /// A copy of the current values.
     pub fn values(&self) -> Vec<f32> {
-        self.values
-            .iter()
-            .map(|a| f32::from_bits(a.load(Relaxed)))
-            .collect()
+        self.state.values.clone()
     }
 
     /// The current values.
     pub fn into_values(self) -> Vec<f32> {
-        self.values
-            .into_iter()
-            .map(|a| f32::from_bits(a.into_inner()))
-            .collect()
-    }
-
-    fn shared(&self) -> Shared<'_> {
-        Shared {
-            values: &self.values,
-            energy: &self.pixel_energy,
-        }
+        self.state.values
     }
 
     fn check_pixel(&self, (x, y): (u32, u32), z: u32) {
@@ -1096,13 +1023,13 @@ impl SwapOptimizer {
     pub fn swap_delta(&self, z: u32, a: (u32, u32), b: (u32, u32)) -> f64 {
         self.check_pixel(a, z);
         self.check_pixel(b, z);
-        let (k, shared) = (&self.kernel, self.shared());
+        let (k, state) = (&self.kernel, &self.state);
         let mut scratch = Scratch::new(k);
         match k.dims {
-            1 => k.delta::<1>(&shared, z, a, b, &mut scratch).0,
-            2 => k.delta::<2>(&shared, z, a, b, &mut scratch).0,
-            3 => k.delta::<3>(&shared, z, a, b, &mut scratch).0,
-            _ => k.delta::<4>(&shared, z, a, b, &mut scratch).0,
+            1 => k.delta::<1>(state, z, a, b, &mut scratch).0,
+            2 => k.delta::<2>(state, z, a, b, &mut scratch).0,
+            3 => k.delta::<3>(state, z, a, b, &mut scratch).0,
+            _ => k.delta::<4>(state, z, a, b, &mut scratch).0,
         }
     }
 
@@ -1114,13 +1041,13 @@ impl SwapOptimizer {
         self.check_pixel(a, z);
         self.check_pixel(b, z);
         let result = {
-            let (k, shared) = (&self.kernel, self.shared());
+            let (k, state) = (&self.kernel, &mut self.state);
             let mut scratch = Scratch::new(k);
             match k.dims {
-                1 => k.attempt::<1>(&shared, z, a, b, &mut scratch),
-                2 => k.attempt::<2>(&shared, z, a, b, &mut scratch),
-                3 => k.attempt::<3>(&shared, z, a, b, &mut scratch),
-                _ => k.attempt::<4>(&shared, z, a, b, &mut scratch),
+                1 => k.attempt::<1>(state, z, a, b, &mut scratch),
+                2 => k.attempt::<2>(state, z, a, b, &mut scratch),
+                3 => k.attempt::<3>(state, z, a, b, &mut scratch),
+                _ => k.attempt::<4>(state, z, a, b, &mut scratch),
             }
         };
         self.attempted += 1;
@@ -1168,110 +1095,154 @@ impl SwapOptimizer {
         tile_target: u32,
         after_colour: &mut dyn FnMut(&Self),
     ) -> TracePoint {
-        let (w, h) = (self.kernel.width, self.kernel.height);
-        let (rx, ry) = self.kernel.reach();
         let pass = self.passes;
         self.passes += 1;
-        let mut grid_rng = keyed_rng(self.seed, stream::GRID, pass, 0);
-        let (ox, oy) = (grid_rng.random_range(0..w), grid_rng.random_range(0..h));
-        let (nx, ny) = (
-            tiles_along(w, rx, tile_target),
-            tiles_along(h, ry, tile_target),
-        );
-        let bound =
-            |i: u32, n: u32, size: u32| (u64::from(i) * u64::from(size) / u64::from(n)) as u32;
-        let mut tiles = Vec::with_capacity((nx * ny) as usize);
-        for ty in 0..ny {
-            for tx in 0..nx {
-                tiles.push(Tile {
-                    x0: (ox + bound(tx, nx, w)) % w,
-                    y0: (oy + bound(ty, ny, h)) % h,
-                    w: bound(tx + 1, nx, w) - bound(tx, nx, w),
-                    h: bound(ty + 1, ny, h) - bound(ty, ny, h),
-                    colour: ((tx % 2) + 2 * (ty % 2)) as u8,
-                    id: u64::from(ty) * u64::from(nx) + u64::from(tx),
-                });
-            }
-        }
-        let fraction = fraction.clamp(0.0, 1.0);
-        for colour in 0..4 {
-            let batch: Vec<Tile> = tiles
-                .iter()
-                .copied()
-                .filter(|t| t.colour == colour)
-                .collect();
-            let plan = PassPlan {
-                seed: self.seed,
-                pass,
-                fraction,
-                partner_candidates: partner_candidates(pass, self.partner_candidates),
-                assignment,
-            };
-            let results: Vec<TileResult> = {
-                let (kernel, shared) = (&self.kernel, self.shared());
-                batch
-                    .par_iter()
-                    .map(|tile| kernel.run_tile_fastest(&shared, tile, &plan))
-                    .collect()
-            };
-            for r in results {
-                self.attempted += r.attempted;
-                self.accepted += r.accepted;
-                self.energy += r.delta;
-            }
-            after_colour(self);
-        }
+        let layout = Layout {
+            width: self.kernel.width,
+            height: self.kernel.height,
+            reach: self.kernel.reach(),
+            target: tile_target,
+            span_start: SpanStart::PassOffset,
+        };
+        let key = PassKey {
+            seed: self.seed,
+            streams: rng::VECTOR,
+            pass,
+        };
+        let plan = PassPlan {
+            fraction: fraction.clamp(0.0, 1.0),
+            partner_candidates: partner_candidates(pass, self.partner_candidates),
+            assignment,
+        };
+        schedule::run_pass(self, &layout, key, &plan, after_colour);
         TracePoint {
             swaps_attempted: self.attempted,
             swaps_accepted: self.accepted,
             energy: self.energy,
         }
     }
+
+    /// A private copy of `tile`'s region of the state.
+    fn extract(&self, tile: &Tile) -> Region {
+        let dims = self.kernel.dims;
+        let pixels = (tile.rw * tile.rh * self.kernel.depth) as usize;
+        let mut values = Vec::with_capacity(pixels * dims);
+        let mut energy = Vec::with_capacity(pixels);
+        tile.region_runs(self.kernel.size(), |from, _, len| {
+            values.extend_from_slice(&self.state.values[from * dims..(from + len) * dims]);
+            energy.extend_from_slice(&self.state.energy[from..from + len]);
+        });
+        Region {
+            steps: self.kernel.steps(tile.rw, tile.rh),
+            values,
+            energy,
+        }
+    }
+
+    /// Writes a tile's copy of its region back: the values of the tile's pixels (the only ones
+    /// its moves change) and the energies of the whole region.
+    fn write_back_region(&mut self, tile: &Tile, region: &Region) {
+        let dims = self.kernel.dims;
+        let state = &mut self.state;
+        tile.tile_runs(self.kernel.size(), |to, from, len| {
+            state.values[to * dims..(to + len) * dims]
+                .copy_from_slice(&region.values[from * dims..(from + len) * dims]);
+        });
+        tile.region_runs(self.kernel.size(), |to, from, len| {
+            state.energy[to..to + len].copy_from_slice(&region.energy[from..from + len]);
+        });
+    }
+}
+
+impl TileOptimizer for SwapOptimizer {
+    type Plan = PassPlan;
+    type Outcome = TileOutcome;
+
+    fn run_tile(&self, tile: &Tile, rng: ChaCha8Rng, plan: &PassPlan) -> TileOutcome {
+        let mut region = self.extract(tile);
+        let result = self.kernel.run_tile_fastest(&mut region, tile, rng, plan);
+        TileOutcome { region, result }
+    }
+
+    fn write_back(&mut self, tile: &Tile, outcome: TileOutcome) {
+        self.write_back_region(tile, &outcome.region);
+        self.attempted += outcome.result.attempted;
+        self.accepted += outcome.result.accepted;
+        self.energy += outcome.result.delta;
+    }
 }
 
 impl SwapKernel {
+    /// The volume's width, height and depth.
+    fn size(&self) -> (u32, u32, u32) {
+        (self.width, self.height, self.depth)
+    }
+
     /// [`SwapKernel::run_tile`] for this kernel's value dimension, compiled for AVX-512 or AVX2
     /// where the CPU has it. Those builds only widen the vector loops (16 or 8 `f32` lanes
     /// instead of SSE2's 4) and perform the same IEEE operations in the same order (Rust never
     /// fuses a multiply and an add), so all give identical bits (tested). AVX2 was 1.3–1.45×
     /// faster than SSE2 (64×64×32, 32 swaps per pixel: Vec2 1.16–1.20 s against 1.67–1.72 s,
     /// UnitVec3 0.94 s against 1.22–1.27 s); AVX-512 is 7–16% faster again (same size, one
-    /// thread, four alternating runs, medians: Vec2 3.35 → 2.8 s, UnitVec3 2.7 → 2.5 s; a set
-    /// of runs earlier than [`Shared::value`]'s, on a slower phase of the VM).
-    fn run_tile_fastest(&self, shared: &Shared, tile: &Tile, plan: &PassPlan) -> TileResult {
+    /// thread, four alternating runs, medians: Vec2 3.35 → 2.8 s, UnitVec3 2.7 → 2.5 s).
+    fn run_tile_fastest(
+        &self,
+        region: &mut Region,
+        tile: &Tile,
+        rng: ChaCha8Rng,
+        plan: &PassPlan,
+    ) -> TileResult {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx512f") {
             // SAFETY: `run_tile_avx512` only requires AVX-512F, which the CPU was just checked to
             // have.
-            return unsafe { self.run_tile_avx512(shared, tile, plan) };
+            return unsafe { self.run_tile_avx512(region, tile, rng, plan) };
         }
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: `run_tile_avx2` only requires AVX2, which the CPU was just checked to have.
-            return unsafe { self.run_tile_avx2(shared, tile, plan) };
+            return unsafe { self.run_tile_avx2(region, tile, rng, plan) };
         }
-        self.run_tile_dims(shared, tile, plan)
+        self.run_tile_dims(region, tile, rng, plan)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
-    fn run_tile_avx512(&self, shared: &Shared, tile: &Tile, plan: &PassPlan) -> TileResult {
-        self.run_tile_dims(shared, tile, plan)
+    fn run_tile_avx512(
+        &self,
+        region: &mut Region,
+        tile: &Tile,
+        rng: ChaCha8Rng,
+        plan: &PassPlan,
+    ) -> TileResult {
+        self.run_tile_dims(region, tile, rng, plan)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn run_tile_avx2(&self, shared: &Shared, tile: &Tile, plan: &PassPlan) -> TileResult {
-        self.run_tile_dims(shared, tile, plan)
+    fn run_tile_avx2(
+        &self,
+        region: &mut Region,
+        tile: &Tile,
+        rng: ChaCha8Rng,
+        plan: &PassPlan,
+    ) -> TileResult {
+        self.run_tile_dims(region, tile, rng, plan)
     }
 
     #[inline(always)]
-    fn run_tile_dims(&self, shared: &Shared, tile: &Tile, plan: &PassPlan) -> TileResult {
+    fn run_tile_dims(
+        &self,
+        region: &mut Region,
+        tile: &Tile,
+        rng: ChaCha8Rng,
+        plan: &PassPlan,
+    ) -> TileResult {
         match self.dims {
-            1 => self.run_tile::<1>(shared, tile, plan),
-            2 => self.run_tile::<2>(shared, tile, plan),
-            3 => self.run_tile::<3>(shared, tile, plan),
-            _ => self.run_tile::<4>(shared, tile, plan),
+            1 => self.run_tile::<1>(region, tile, rng, plan),
+            2 => self.run_tile::<2>(region, tile, rng, plan),
+            3 => self.run_tile::<3>(region, tile, rng, plan),
+            _ => self.run_tile::<4>(region, tile, rng, plan),
         }
     }
 
@@ -1279,26 +1250,27 @@ impl SwapKernel {
     #[inline(always)]
     fn run_tile<const D: usize>(
         &self,
-        shared: &Shared,
+        region: &mut Region,
         tile: &Tile,
+        mut rng: ChaCha8Rng,
         plan: &PassPlan,
     ) -> TileResult {
         if plan.assignment >= 2 {
-            return self.run_tile_assignment::<D>(shared, tile, plan);
+            return self.run_tile_assignment::<D>(region, tile, rng, plan);
         }
         let mut result = TileResult::default();
-        let n = tile.w * tile.h;
+        let n = tile.pixels();
         if n < 2 {
             return result;
         }
-        let mut rng = keyed_rng(plan.seed, stream::TILE, plan.pass, tile.id);
         let mut scratch = Scratch::new(self);
         let count = ((plan.fraction * f64::from(n)).round() as usize).min(n as usize);
         let mut order: Vec<u32> = (0..n).collect();
-        let pixel = |i: u32| tile.pixel(i, self.width, self.height);
-        let in_slice = tile.slice_indices(self.width, self.height);
+        let pixel = |i: u32| tile.local(i);
+        let in_slice = region_indices(tile);
+        let slice = (tile.rw * tile.rh) as usize;
         for z in 0..self.depth {
-            let base = z as usize * self.slice_pixels();
+            let base = z as usize * slice;
             order.shuffle(&mut rng);
             for &i in &order[..count] {
                 let mut draw = || other_index(&mut rng, i, n);
@@ -1306,11 +1278,11 @@ impl SwapKernel {
                 // changes nothing, and spaces like ±1 have many), the first of equals.
                 let mut j = draw();
                 if plan.partner_candidates > 1 {
-                    let value = shared.value::<D>(base + in_slice[i as usize]);
+                    let value = region.value::<D>(base + in_slice[i as usize]);
                     let distance = |j: u32| {
                         let d = squared_distance(
                             &value,
-                            &shared.value::<D>(base + in_slice[j as usize]),
+                            &region.value::<D>(base + in_slice[j as usize]),
                         );
                         if d > 0.0 { d } else { f32::INFINITY }
                     };
@@ -1324,7 +1296,7 @@ impl SwapKernel {
                     }
                 }
                 result.attempted += 1;
-                if let Some(delta) = self.attempt::<D>(shared, z, pixel(i), pixel(j), &mut scratch)
+                if let Some(delta) = self.attempt::<D>(region, z, pixel(i), pixel(j), &mut scratch)
                 {
                     result.accepted += 1;
                     result.delta += delta;
@@ -1333,6 +1305,16 @@ impl SwapKernel {
         }
         result
     }
+}
+
+/// Each pixel of `tile` (row by row) as an index within a slice of its region.
+fn region_indices(tile: &Tile) -> Vec<usize> {
+    (0..tile.pixels())
+        .map(|i| {
+            let (x, y) = tile.local(i);
+            y as usize * tile.rw as usize + x as usize
+        })
+        .collect()
 }
 
 /// Largest set of an assignment pass.
@@ -1444,20 +1426,21 @@ impl SwapKernel {
     #[inline(always)]
     fn run_tile_assignment<const D: usize>(
         &self,
-        shared: &Shared,
+        region: &mut Region,
         tile: &Tile,
+        mut rng: ChaCha8Rng,
         plan: &PassPlan,
     ) -> TileResult {
         let mut result = TileResult::default();
-        let n = tile.w * tile.h;
+        let n = tile.pixels();
         if n < 2 {
             return result;
         }
         let k_max = plan.assignment as usize;
-        let mut rng = keyed_rng(plan.seed, stream::TILE, plan.pass, tile.id);
         let mut scratch = Scratch::new(self);
-        let pixel = |i: u32| tile.pixel(i, self.width, self.height);
-        let in_slice = tile.slice_indices(self.width, self.height);
+        let pixel = |i: u32| tile.local(i);
+        let in_slice = region_indices(tile);
+        let slice = (tile.rw * tile.rh) as usize;
         let mut order: Vec<u32> = (0..n).collect();
         let mut near: Vec<(u32, u32)> = Vec::with_capacity(n as usize);
         let mut set: Vec<u32> = Vec::with_capacity(k_max);
@@ -1470,10 +1453,10 @@ impl SwapKernel {
         let shortlist = ASSIGNMENT_SHORTLIST.min(n as usize);
         let moves = (n as usize).div_ceil(k_max);
         for z in 0..self.depth {
-            let base = z as usize * self.slice_pixels();
+            let base = z as usize * slice;
             order.shuffle(&mut rng);
             tile_values.clear();
-            tile_values.extend(in_slice.iter().map(|&p| shared.value::<D>(base + p)));
+            tile_values.extend(in_slice.iter().map(|&p| region.value::<D>(base + p)));
             for &anchor in &order[..moves] {
                 // The shortlist: the tile's values nearest the anchor's, nearest first (ties by
                 // position in the tile), then greedily the ones that interact with none chosen.
@@ -1524,8 +1507,8 @@ impl SwapKernel {
                 for (r, &i) in set.iter().enumerate() {
                     let (x, y) = pixel(i);
                     let centre = base + in_slice[i as usize];
-                    self.for_each_neighbour((x, y, z), centre, |t, n| {
-                        neighbours[t] = shared.value::<D>(n);
+                    self.for_each_neighbour(&region.steps, (x, y, z), centre, |t, n| {
+                        neighbours[t] = region.value::<D>(n);
                     });
                     for (c, &j) in set.iter().enumerate() {
                         cost[r * k + c] = self.pixel_cost::<D>(
@@ -1556,22 +1539,25 @@ impl SwapKernel {
                     let centre = base + in_slice[i as usize];
                     let inv = self.inv_sigma_value_sq;
                     let weights = &scratch.weight;
-                    self.for_each_neighbour((x, y, z), centre, |t, nb| {
-                        let vn = shared.value::<D>(nb);
+                    let Region {
+                        steps,
+                        values,
+                        energy,
+                    } = &mut *region;
+                    self.for_each_neighbour(steps, (x, y, z), centre, |t, nb| {
+                        let vn = value_at::<D>(values, nb);
                         let change = weights[t]
                             * (f64::from(value_factor::<D>(squared_distance(&to, &vn), inv))
                                 - f64::from(value_factor::<D>(squared_distance(&from, &vn), inv)));
-                        shared.set_energy(nb, shared.energy(nb) + change);
+                        energy[nb] += change;
                     });
-                    shared.set_energy(centre, cost[r * k + perm[r]]);
+                    energy[centre] = cost[r * k + perm[r]];
                 }
                 for (r, &i) in set.iter().enumerate() {
                     let to = old[perm[r]];
                     tile_values[i as usize] = to;
                     let centre = base + in_slice[i as usize];
-                    for (c, &bits) in to.iter().enumerate() {
-                        shared.values[centre * D + c].store(bits.to_bits(), Relaxed);
-                    }
+                    region.values[centre * D..(centre + 1) * D].copy_from_slice(&to);
                 }
             }
         }
@@ -1582,6 +1568,8 @@ impl SwapKernel {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::rng::keyed_rng;
+    use rand::RngExt;
 
     #[test]
     fn exp_neg_matches_std() {
@@ -1679,17 +1667,25 @@ mod tests {
         if std::arch::is_x86_feature_detected!("avx512f") {
             builds.push(Build::Avx512);
         }
-        let run = |build: Build, o: &SwapOptimizer, tile: &Tile, plan: &PassPlan| match build {
-            Build::Portable => o.kernel.run_tile_dims(&o.shared(), tile, plan),
-            // SAFETY: the CPU has AVX2 (asserted above).
-            Build::Avx2 => unsafe { o.kernel.run_tile_avx2(&o.shared(), tile, plan) },
-            // SAFETY: only pushed where the CPU has AVX-512F.
-            Build::Avx512 => unsafe { o.kernel.run_tile_avx512(&o.shared(), tile, plan) },
+        // Runs `tile` of pass `pass` on a copy of its region, as a pass would, and writes the
+        // copy back.
+        let run = |build: Build, o: &mut SwapOptimizer, tile: &Tile, pass: u64, plan: &PassPlan| {
+            let mut region = o.extract(tile);
+            let rng = keyed_rng(5, crate::rng::VECTOR.tile, pass, tile.id);
+            let result = match build {
+                Build::Portable => o.kernel.run_tile_dims(&mut region, tile, rng, plan),
+                // SAFETY: the CPU has AVX2 (asserted above).
+                Build::Avx2 => unsafe { o.kernel.run_tile_avx2(&mut region, tile, rng, plan) },
+                // SAFETY: only pushed where the CPU has AVX-512F.
+                Build::Avx512 => unsafe { o.kernel.run_tile_avx512(&mut region, tile, rng, plan) },
+            };
+            o.write_back_region(tile, &region);
+            result
         };
         let bits = |o: &SwapOptimizer| -> (Vec<u32>, Vec<u64>) {
             (
-                o.values.iter().map(|v| v.load(Relaxed)).collect(),
-                o.pixel_energy.iter().map(|e| e.load(Relaxed)).collect(),
+                o.state.values.iter().map(|v| v.to_bits()).collect(),
+                o.state.energy.iter().map(|e| e.to_bits()).collect(),
             )
         };
         let spaces = [
@@ -1706,29 +1702,26 @@ mod tests {
             let tile = Tile {
                 x0: 3,
                 y0: 5,
-                w: 16,
-                h: 12,
-                colour: 0,
-                id: 0,
+                rx0: 3,
+                ry0: 5,
+                ..Tile::whole(16, 12)
             };
-            let portable = SwapOptimizer::new(&spec, start.clone());
-            let simd: Vec<SwapOptimizer> = builds
+            let mut portable = SwapOptimizer::new(&spec, start.clone());
+            let mut simd: Vec<SwapOptimizer> = builds
                 .iter()
                 .map(|_| SwapOptimizer::new(&spec, start.clone()))
                 .collect();
             // Three swap passes, then two assignment passes of up to 4 pixels per set.
             for pass in 0..5 {
                 let plan = PassPlan {
-                    seed: 5,
-                    pass,
                     fraction: 1.0,
                     partner_candidates: PARTNER_CANDIDATES,
                     assignment: if pass < 3 { 0 } else { 4 },
                 };
-                let a = run(Build::Portable, &portable, &tile, &plan);
+                let a = run(Build::Portable, &mut portable, &tile, pass, &plan);
                 assert!(a.accepted > 0, "{space:?}: no swap accepted");
-                for (&build, o) in builds.iter().zip(&simd) {
-                    let b = run(build, o, &tile, &plan);
+                for (&build, o) in builds.iter().zip(&mut simd) {
+                    let b = run(build, o, &tile, pass, &plan);
                     assert_eq!((a.attempted, a.accepted), (b.attempted, b.accepted));
                     assert_eq!(a.delta.to_bits(), b.delta.to_bits(), "{space:?} {build:?}");
                 }
@@ -1851,7 +1844,7 @@ mod tests {
                 .values()
                 .to_vec();
             let o = SwapOptimizer::new(&spec, start);
-            let (k, shared) = (&o.kernel, o.shared());
+            let (k, state) = (&o.kernel, &o.state);
             let taps = k.spatial.len() + k.temporal.len();
             let probe = [0.25f32, -0.5];
             for z in 0..d {
@@ -1859,33 +1852,13 @@ mod tests {
                     for x in 0..w {
                         let centre = ((z * h + y) * w + x) as usize;
                         let mut fast = vec![f32::NAN; taps];
-                        k.gather::<2>(&shared, (x, y, z), centre, &probe, &mut fast);
+                        k.gather::<2>(state, (x, y, z), centre, &probe, &mut fast);
                         let mut each = vec![f32::NAN; taps];
-                        k.for_each_neighbour((x, y, z), centre, |t, n| {
-                            each[t] = squared_distance(&probe, &shared.value::<2>(n));
+                        k.for_each_neighbour(&state.steps, (x, y, z), centre, |t, n| {
+                            each[t] = squared_distance(&probe, &state.value::<2>(n));
                         });
                         let bits = |v: &[f32]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
                         assert_eq!(bits(&fast), bits(&each), "{w}×{h}×{d} at ({x}, {y}, {z})");
-                    }
-                }
-            }
-        }
-    }
-
-    #[test]
-    fn tiles_keep_same_colour_apart() {
-        // This optimiser's target and the filter-adapted optimiser's.
-        let targets = [
-            TILE_TARGET,
-            crate::filter_adapted::optimizer::Optimizer::TILE_TARGET,
-        ];
-        for target in targets {
-            for size in 1..100 {
-                for reach in 0..8 {
-                    let n = tiles_along(size, reach, target);
-                    assert!(n == 1 || n.is_multiple_of(2));
-                    if n > 1 {
-                        assert!(size / n >= 2 * reach, "{size} {reach} {n}");
                     }
                 }
             }

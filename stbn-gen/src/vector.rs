@@ -13,9 +13,10 @@ use std::fmt;
 
 use rayon::prelude::*;
 
+use crate::rng::{self, keyed_rng};
 use crate::space::{SampleSpace, hilbert_key};
 use crate::spec::{MaskSpec, SpecError};
-use crate::swap::{SwapOptimizer, keyed_rng, stream};
+use crate::swap::SwapOptimizer;
 
 /// How each slice's stratified values are arranged before the swaps.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -156,11 +157,13 @@ impl VectorSpec {
     }
 
     /// Peak generator memory per pixel in bytes: during optimisation the values (4 bytes per
-    /// component, converted in place to and from the volume's), each pixel's cached energy (8)
-    /// and the scalar mask's ranks or the pdf channel (4); before it, the scalar mask's generator
-    /// ([`MaskSpec::BYTES_PER_PIXEL`]) if the arrangement needs one.
+    /// component, converted in place to and from the volume's) and each pixel's cached energy
+    /// (8), plus the private copies the tiles of one colour make of their regions (about 60%
+    /// more of both at the default σi), and the scalar mask's ranks or the pdf channel (4);
+    /// before it, the scalar mask's generator ([`MaskSpec::BYTES_PER_PIXEL`]) if the arrangement
+    /// needs one.
     pub fn bytes_per_pixel(&self) -> u64 {
-        let optimiser = 4 * self.space.dims() as u64 + 8 + 4;
+        let optimiser = (4 * self.space.dims() as u64 + 8) * 8 / 5 + 4;
         match self.initial_arrangement {
             InitialArrangement::ScalarStbn => optimiser.max(MaskSpec::BYTES_PER_PIXEL + 4),
             InitialArrangement::Random => optimiser,
@@ -440,7 +443,7 @@ pub fn generate_vector_with_progress(
         .par_chunks_mut(n * dims)
         .enumerate()
         .for_each(|(z, slice)| {
-            let mut rng = keyed_rng(spec.seed, stream::INIT, z as u64, 0);
+            let mut rng = keyed_rng(spec.seed, rng::VECTOR.init, z as u64, 0);
             let set = sampler.slice(n, &mut rng);
             match &ranks {
                 None => slice.copy_from_slice(&set),

@@ -63,14 +63,14 @@ use std::fmt;
 use rand::seq::SliceRandom;
 use rayon::prelude::*;
 
+use crate::rng::{self, keyed_rng};
 use crate::space::{SampleSpace, hilbert_key};
 use crate::spec::{MaskSpec, SpecError};
-use crate::swap::keyed_rng;
 use crate::vector::{EnergyTrace, InitialArrangement, TracePoint};
 use crate::volume::Volume;
 use crate::{VectorVolume, generate};
 use filters::{Kernel, PairWeights, ScanKernel};
-use optimizer::{CORE_RADIUS_SQUARED, Energy, Optimizer, stream};
+use optimizer::{CORE_RADIUS_SQUARED, Energy, Optimizer};
 
 /// How two values interact in the energy ([module docs](self)).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -496,7 +496,12 @@ pub fn generate_filter_adapted_with_trace(
                     .iter_mut()
                     .enumerate()
                     .for_each(|(i, r)| *r = i as u32);
-                slice.shuffle(&mut keyed_rng(spec.seed, stream::INIT, z as u64, 0));
+                slice.shuffle(&mut keyed_rng(
+                    spec.seed,
+                    rng::FILTER_ADAPTED.init,
+                    z as u64,
+                    0,
+                ));
             });
             perm
         }
@@ -581,7 +586,7 @@ fn vector_setup(
         .par_chunks_mut(n * dims)
         .enumerate()
         .for_each(|(z, slice)| {
-            let mut rng = keyed_rng(spec.seed, crate::swap::stream::INIT, z as u64, 0);
+            let mut rng = keyed_rng(spec.seed, rng::VECTOR.init, z as u64, 0);
             let set = sampler.slice(n, &mut rng);
             match &ranks {
                 None => slice.copy_from_slice(&set),

@@ -49,22 +49,13 @@
 //! twice the reach wide), written back after the colour. Each tile draws from its own ChaCha8
 //! stream keyed by (seed, pass, tile). Nothing depends on the number of threads.
 
-use rand::RngExt;
 use rand::seq::SliceRandom;
+use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
 use super::filters::{Kernel, ScanKernel};
-use crate::swap::{keyed_rng, other_index, tiles_along};
-
-/// Domain tags of this optimiser's random streams (distinct from the swap optimiser's).
-pub(crate) mod stream {
-    /// Initial arrangement of scalar masks, one stream per frame.
-    pub const INIT: u64 = 0x4641_5354_0001;
-    /// Tile grid offsets of a pass.
-    pub const GRID: u64 = 0x4641_5354_0002;
-    /// Swap proposals of one tile of one pass.
-    pub const TILE: u64 = 0x4641_5354_0003;
-}
+use crate::rng::{self, other_index};
+use crate::schedule::{self, Layout, PassKey, SpanStart, Tile, TileOptimizer};
 
 /// Spatial taps with `Δx² + Δy² ≤ CORE_RADIUS_SQUARED` (the pixel and its 8 neighbours, times
 /// every temporal tap) form the screening core. Cores of radius √2, 2 and √8 reach the same
@@ -97,35 +88,6 @@ pub(crate) enum Energy {
         /// `φ_c(x)`, index `c · pixels + x`: integers, exact in `f64`.
         phi: Vec<f64>,
     },
-}
-
-/// One tile of a pass and the region around it that it reads and writes.
-#[derive(Clone, Copy, Debug)]
-struct Tile {
-    /// First column and row of the tile (global) and its size.
-    x0: usize,
-    y0: usize,
-    w: usize,
-    h: usize,
-    /// First column and row of its region (global) and the region's size.
-    rx0: usize,
-    ry0: usize,
-    rw: usize,
-    rh: usize,
-    /// The region spans the whole axis (one tile along it): offsets wrap around it.
-    wrap_x: bool,
-    wrap_y: bool,
-    colour: u8,
-    id: u64,
-}
-
-impl Tile {
-    /// Region coordinates of tile pixel `i` (row-major in the tile).
-    fn local(&self, i: usize, reach: (u32, u32)) -> (usize, usize) {
-        let offx = if self.wrap_x { 0 } else { reach.0 as usize };
-        let offy = if self.wrap_y { 0 } else { reach.1 as usize };
-        (i % self.w + offx, i / self.w + offy)
-    }
 }
 
 /// A rectangle of columns (every frame) of the distance energy's levels: `cols[((c · rh + y) ·
@@ -280,6 +242,12 @@ enum Region {
     Distance(Columns),
     /// `φ` over the region ([`splat`]'s layout).
     Product(Vec<f64>),
+}
+
+/// One tile's copies after its swaps, and its totals.
+pub(crate) struct TileOutcome {
+    work: Work,
+    result: TileResult,
 }
 
 /// Totals of one tile's work.
@@ -531,20 +499,7 @@ impl Optimizer {
 
     /// The levels of the whole volume as [`Columns`] wrapping on both axes.
     fn whole_columns(&self) -> Columns {
-        let tile = Tile {
-            x0: 0,
-            y0: 0,
-            w: self.width,
-            h: self.height,
-            rx0: 0,
-            ry0: 0,
-            rw: self.width,
-            rh: self.height,
-            wrap_x: true,
-            wrap_y: true,
-            colour: 0,
-            id: 0,
-        };
+        let tile = Tile::whole(self.width as u32, self.height as u32);
         match self.extract(&tile).region {
             Region::Distance(columns) => columns,
             Region::Product(_) => unreachable!("distance energy"),
@@ -718,101 +673,42 @@ impl Optimizer {
     /// One pass ([module docs](self)): in every frame each pixel proposes one swap, or, with
     /// `fraction < 1`, the first `round(fraction · n)` pixels of each tile's random order do.
     pub fn run_pass(&mut self, fraction: f64) {
-        let (w, h) = (self.width as u32, self.height as u32);
-        let (rx, ry) = self.reach;
-        let pass = self.passes;
-        self.passes += 1;
-        let mut grid_rng = keyed_rng(self.seed, stream::GRID, pass, 0);
-        let (ox, oy) = (grid_rng.random_range(0..w), grid_rng.random_range(0..h));
-        let (nx, ny) = (
-            tiles_along(w, rx, Self::TILE_TARGET),
-            tiles_along(h, ry, Self::TILE_TARGET),
-        );
-        let bound =
-            |i: u32, n: u32, size: u32| (u64::from(i) * u64::from(size) / u64::from(n)) as usize;
-        // (start, size, region start, region size, wrap) of tile i of n along an axis.
-        let axis = |i: u32, n: u32, size: u32, offset: u32, reach: u32| {
-            let size_us = size as usize;
-            if n == 1 {
-                (0, size_us, 0, size_us, true)
-            } else {
-                let start = (offset as usize + bound(i, n, size)) % size_us;
-                let len = bound(i + 1, n, size) - bound(i, n, size);
-                let reach = reach as usize;
-                (
-                    start,
-                    len,
-                    (start + size_us - reach) % size_us,
-                    len + 2 * reach,
-                    false,
-                )
-            }
+        let layout = Layout {
+            width: self.width as u32,
+            height: self.height as u32,
+            reach: self.reach,
+            target: Self::TILE_TARGET,
+            span_start: SpanStart::Origin,
         };
-        let mut tiles = Vec::with_capacity((nx * ny) as usize);
-        for ty in 0..ny {
-            for tx in 0..nx {
-                let (x0, tw, rx0, rw, wrap_x) = axis(tx, nx, w, ox, rx);
-                let (y0, th, ry0, rh, wrap_y) = axis(ty, ny, h, oy, ry);
-                tiles.push(Tile {
-                    x0,
-                    y0,
-                    w: tw,
-                    h: th,
-                    rx0,
-                    ry0,
-                    rw,
-                    rh,
-                    wrap_x,
-                    wrap_y,
-                    colour: ((tx % 2) + 2 * (ty % 2)) as u8,
-                    id: u64::from(ty) * u64::from(nx) + u64::from(tx),
-                });
-            }
-        }
-        let fraction = fraction.clamp(0.0, 1.0);
-        for colour in 0..4 {
-            let batch: Vec<Tile> = tiles
-                .iter()
-                .copied()
-                .filter(|t| t.colour == colour)
-                .collect();
-            let results: Vec<(Tile, Work, TileResult)> = batch
-                .par_iter()
-                .map(|tile| {
-                    let mut work = self.extract(tile);
-                    let result = self.run_tile(tile, &mut work, pass, fraction);
-                    (*tile, work, result)
-                })
-                .collect();
-            for (tile, work, result) in results {
-                self.write_back(&tile, &work);
-                self.attempted += result.attempted;
-                self.screened += result.screened;
-                self.accepted += result.accepted;
-                self.energy += result.delta;
-            }
-        }
+        let key = PassKey {
+            seed: self.seed,
+            streams: rng::FILTER_ADAPTED,
+            pass: self.passes,
+        };
+        self.passes += 1;
+        let plan = fraction.clamp(0.0, 1.0);
+        schedule::run_pass(self, &layout, key, &plan, &mut |_| {});
     }
 
     /// The tile's private copies ([`Work`]).
     fn extract(&self, tile: &Tile) -> Work {
         let (w, h, d) = (self.width, self.height, self.depth);
-        let mut perm = Vec::with_capacity(tile.w * tile.h * d);
+        let [x0, y0, tw, th, rx0, ry0, rw, rh] = tile_extents(tile);
+        let mut perm = Vec::with_capacity(tw * th * d);
         for z in 0..d {
-            for ty in 0..tile.h {
-                let row = (z * h + (tile.y0 + ty) % h) * w;
-                perm.extend((0..tile.w).map(|tx| self.perm[row + (tile.x0 + tx) % w]));
+            for ty in 0..th {
+                let row = (z * h + (y0 + ty) % h) * w;
+                perm.extend((0..tw).map(|tx| self.perm[row + (x0 + tx) % w]));
             }
         }
-        let (rw, rh) = (tile.rw, tile.rh);
         let region = match &self.energy_state {
             Energy::Distance { levels, dims, .. } => {
                 let slice = self.slice();
                 let mut cols = vec![0i16; dims * rw * rh * 2 * d];
                 for (k, col) in cols.chunks_exact_mut(2 * d).enumerate() {
                     let (c, k) = (k / (rw * rh), k % (rw * rh));
-                    let y = (tile.ry0 + k / rw) % h;
-                    let x = (tile.rx0 + k % rw) % w;
+                    let y = (ry0 + k / rw) % h;
+                    let x = (rx0 + k % rw) % w;
                     for z in 0..d {
                         let index = self.perm[(z * h + y) * w + x] as usize;
                         let level = levels[(z * slice + index) * dims + c];
@@ -835,9 +731,9 @@ impl Optimizer {
                 for c in 0..*dims {
                     for z in 0..d {
                         for ly in 0..rh {
-                            let row = c * pixels + (z * h + (tile.ry0 + ly) % h) * w;
-                            let first = rw.min(w - tile.rx0);
-                            out.extend_from_slice(&phi[row + tile.rx0..row + tile.rx0 + first]);
+                            let row = c * pixels + (z * h + (ry0 + ly) % h) * w;
+                            let first = rw.min(w - rx0);
+                            out.extend_from_slice(&phi[row + rx0..row + rx0 + first]);
                             out.extend_from_slice(&phi[row..row + (rw - first)]);
                         }
                     }
@@ -849,14 +745,15 @@ impl Optimizer {
     }
 
     /// Writes a tile's copies back ([`Optimizer::extract`]'s layouts).
-    fn write_back(&mut self, tile: &Tile, work: &Work) {
+    fn write_back_work(&mut self, tile: &Tile, work: &Work) {
         let (w, h, d) = (self.width, self.height, self.depth);
+        let [x0, y0, tw, th, rx0, ry0, rw, rh] = tile_extents(tile);
         let mut k = 0;
         for z in 0..d {
-            for ty in 0..tile.h {
-                let row = (z * h + (tile.y0 + ty) % h) * w;
-                for tx in 0..tile.w {
-                    self.perm[row + (tile.x0 + tx) % w] = work.perm[k];
+            for ty in 0..th {
+                let row = (z * h + (y0 + ty) % h) * w;
+                for tx in 0..tw {
+                    self.perm[row + (x0 + tx) % w] = work.perm[k];
                     k += 1;
                 }
             }
@@ -865,15 +762,13 @@ impl Optimizer {
         if let (Energy::Product { phi, dims, .. }, Region::Product(region)) =
             (&mut self.energy_state, &work.region)
         {
-            let (rw, rh) = (tile.rw, tile.rh);
             let mut k = 0;
             for c in 0..*dims {
                 for z in 0..d {
                     for ly in 0..rh {
-                        let row = c * pixels + (z * h + (tile.ry0 + ly) % h) * w;
-                        let first = rw.min(w - tile.rx0);
-                        phi[row + tile.rx0..row + tile.rx0 + first]
-                            .copy_from_slice(&region[k..k + first]);
+                        let row = c * pixels + (z * h + (ry0 + ly) % h) * w;
+                        let first = rw.min(w - rx0);
+                        phi[row + rx0..row + rx0 + first].copy_from_slice(&region[k..k + first]);
                         phi[row..row + (rw - first)].copy_from_slice(&region[k + first..k + rw]);
                         k += rw;
                     }
@@ -883,13 +778,19 @@ impl Optimizer {
     }
 
     /// Proposes the swaps of one tile of one pass in every frame, on the tile's copies.
-    fn run_tile(&self, tile: &Tile, work: &mut Work, pass: u64, fraction: f64) -> TileResult {
+    fn run_tile_work(
+        &self,
+        tile: &Tile,
+        work: &mut Work,
+        mut rng: ChaCha8Rng,
+        fraction: f64,
+    ) -> TileResult {
         let mut result = TileResult::default();
-        let n = tile.w * tile.h;
+        let [_, _, tw, th, _, _, rw, rh] = tile_extents(tile);
+        let n = tw * th;
         if n < 2 {
             return result;
         }
-        let mut rng = keyed_rng(self.seed, stream::TILE, pass, tile.id);
         let count = ((fraction * n as f64).round() as usize).min(n);
         let mut order: Vec<u32> = (0..n as u32).collect();
         let screen = match &self.energy_state {
@@ -905,8 +806,8 @@ impl Optimizer {
                 let j = other_index(&mut rng, i, n as u32);
                 let (i, j) = (i as usize, j as usize);
                 result.attempted += 1;
-                let a = tile.local(i, self.reach);
-                let b = tile.local(j, self.reach);
+                let a = local(tile, i);
+                let b = local(tile, j);
                 let (pa, pb) = (work.perm[base + i], work.perm[base + j]);
                 let delta = match &work.region {
                     Region::Distance(columns) => {
@@ -916,11 +817,8 @@ impl Optimizer {
                         }
                     }
                     Region::Product(phi) => {
-                        let plane = self.depth * tile.rh * tile.rw;
-                        let (ka, kb) = (
-                            (z * tile.rh + a.1) * tile.rw + a.0,
-                            (z * tile.rh + b.1) * tile.rw + b.0,
-                        );
+                        let plane = self.depth * rh * rw;
+                        let (ka, kb) = ((z * rh + a.1) * rw + a.0, (z * rh + b.1) * rw + b.0);
                         self.product_delta(
                             z,
                             pa,
@@ -957,7 +855,7 @@ impl Optimizer {
                             i64::from(table[(slice + pb as usize) * dims + c])
                                 - i64::from(table[(slice + pa as usize) * dims + c])
                         }));
-                        let view = (tile.rw, tile.rh, tile.wrap_x, tile.wrap_y);
+                        let view = (rw, rh, tile.wrap_x, tile.wrap_y);
                         splat(kernel, phi, view, z, a, &step, 1.0);
                         splat(kernel, phi, view, z, b, &step, -1.0);
                     }
@@ -973,6 +871,41 @@ impl Optimizer {
         }
         result
     }
+}
+
+impl TileOptimizer for Optimizer {
+    /// The share of each tile's pixels that propose, in `[0, 1]`.
+    type Plan = f64;
+    type Outcome = TileOutcome;
+
+    fn run_tile(&self, tile: &Tile, rng: ChaCha8Rng, fraction: &f64) -> TileOutcome {
+        let mut work = self.extract(tile);
+        let result = self.run_tile_work(tile, &mut work, rng, *fraction);
+        TileOutcome { work, result }
+    }
+
+    fn write_back(&mut self, tile: &Tile, TileOutcome { work, result }: TileOutcome) {
+        self.write_back_work(tile, &work);
+        self.attempted += result.attempted;
+        self.screened += result.screened;
+        self.accepted += result.accepted;
+        self.energy += result.delta;
+    }
+}
+
+/// A tile's first column and row, size, its region's first column and row and size, as indices.
+fn tile_extents(tile: &Tile) -> [usize; 8] {
+    [
+        tile.x0, tile.y0, tile.w, tile.h, tile.rx0, tile.ry0, tile.rw, tile.rh,
+    ]
+    .map(|v| v as usize)
+}
+
+/// Region coordinates of tile pixel `i` ([`Tile::local`]) as indices.
+#[inline(always)]
+fn local(tile: &Tile, i: usize) -> (usize, usize) {
+    let (x, y) = tile.local(i as u32);
+    (x as usize, y as usize)
 }
 
 #[cfg(test)]

@@ -1,0 +1,380 @@
+//! The tile schedule both swap optimisers run their passes on: deterministic parallel passes
+//! for any number of threads.
+//!
+//! A pass cuts every frame into rectangular tiles ([`Layout::tiles`]) at a seeded random offset,
+//! about [`Layout::target`] pixels wide and never narrower than twice the optimiser's reach. A
+//! tile covers its columns in every frame. Tiles are coloured in a 2 × 2 pattern and the four
+//! colours run one after the other; the tiles of one colour run in parallel
+//! ([`run_pass`]), each on private copies of its *region* (the tile widened by the reach on
+//! every side, all frames), and their outcomes are written back in tile order after the colour.
+//! Each tile draws from its own ChaCha8 stream keyed by (seed, pass, tile).
+//!
+//! Why this is deterministic: two tiles of one colour are separated by a whole tile, at least
+//! twice the reach wide, so their regions never overlap, and a tile's moves read and write only
+//! its region. So each tile's outcome is a function of the state before its colour, and
+//! writing the outcomes back in tile order gives the same state whatever ran where.
+//!
+//! Why private copies: each tile owns its region outright (`&mut`, no atomics, no `unsafe`), and
+//! a region (a few tens of kilobytes) stays in cache while its tile runs.
+
+use rand::RngExt;
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
+
+use crate::rng::{Streams, keyed_rng};
+
+/// An optimiser whose passes [`run_pass`] schedules.
+///
+/// Invariant: [`TileOptimizer::run_tile`] reads only the tile's region as it was before the
+/// tile's colour, and [`TileOptimizer::write_back`] changes only that region. Tiles of one
+/// colour have disjoint regions, so none reads what another writes, and the outcome of a pass is
+/// the same for every number of threads.
+pub(crate) trait TileOptimizer: Sync {
+    /// What every tile of one pass needs besides its coordinates and random stream.
+    type Plan: Sync;
+    /// One tile's work: its region's private copies after its moves, and its totals.
+    type Outcome: Send;
+
+    /// Runs the moves of `tile` on private copies of its region, drawing from `rng`.
+    fn run_tile(&self, tile: &Tile, rng: ChaCha8Rng, plan: &Self::Plan) -> Self::Outcome;
+
+    /// Writes `tile`'s outcome back into the optimiser's state and adds up its totals.
+    fn write_back(&mut self, tile: &Tile, outcome: Self::Outcome);
+}
+
+/// The random keys of one pass: its grid offset draws from `keyed_rng(seed, streams.grid, pass,
+/// 0)`, tile `t` from `keyed_rng(seed, streams.tile, pass, t.id)`.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct PassKey {
+    /// The mask's seed.
+    pub seed: u64,
+    /// The optimiser's stream tags.
+    pub streams: Streams,
+    /// The pass number, from 0.
+    pub pass: u64,
+}
+
+/// One pass: the tiles of `layout` at the pass's offset, colour by colour, the tiles of a colour
+/// in parallel, their outcomes written back in tile order. Calls `after_colour` after each of
+/// the four colours.
+pub(crate) fn run_pass<O: TileOptimizer>(
+    optimizer: &mut O,
+    layout: &Layout,
+    key: PassKey,
+    plan: &O::Plan,
+    after_colour: &mut dyn FnMut(&O),
+) {
+    let tiles = layout.tiles(key);
+    for colour in 0..4 {
+        let batch: Vec<&Tile> = tiles.iter().filter(|t| t.colour == colour).collect();
+        let outcomes: Vec<O::Outcome> = {
+            let optimizer = &*optimizer;
+            batch
+                .par_iter()
+                .map(|tile| {
+                    let rng = keyed_rng(key.seed, key.streams.tile, key.pass, tile.id);
+                    optimizer.run_tile(tile, rng, plan)
+                })
+                .collect()
+        };
+        for (tile, outcome) in batch.into_iter().zip(outcomes) {
+            optimizer.write_back(tile, outcome);
+        }
+        after_colour(optimizer);
+    }
+}
+
+/// Tiles along an axis of `size` pixels: an even count whose tiles are all at least `2 · reach`
+/// wide, near `size / target`; 1 when the axis is too short for two. Two tiles of one colour are
+/// then separated by at least twice the reach, so their regions do not overlap.
+pub(crate) fn tiles_along(size: u32, reach: u32, target: u32) -> u32 {
+    let max_tiles = size / (2 * reach).max(1);
+    let want = (size / target.max(1)).max(2).min(max_tiles);
+    if want >= 2 { want & !1 } else { 1 }
+}
+
+/// Where a tile that spans a whole axis (one tile along it) starts. The two optimisers differ
+/// here, and each keeps its choice: it decides which pixel a tile's index `i` is, so changing it
+/// changes their masks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum SpanStart {
+    /// At the pass's offset, like every other tile (the vector swap optimiser).
+    PassOffset,
+    /// At 0 (the filter-adapted optimiser).
+    Origin,
+}
+
+/// How an optimiser cuts its frames into tiles.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Layout {
+    /// Pixels per row and rows per frame.
+    pub width: u32,
+    pub height: u32,
+    /// How far, in pixels along x and y, a move at one pixel reads or writes around it.
+    pub reach: (u32, u32),
+    /// Preferred tile side in pixels.
+    pub target: u32,
+    /// Where a tile spanning a whole axis starts.
+    pub span_start: SpanStart,
+}
+
+impl Layout {
+    /// The tiles of the pass `key` says, row by row (`id` = `ty · nx + tx`), coloured
+    /// `(tx mod 2) + 2 (ty mod 2)`. The grid's offset is drawn from the pass's grid stream,
+    /// x first.
+    pub(crate) fn tiles(&self, key: PassKey) -> Vec<Tile> {
+        let (w, h) = (self.width, self.height);
+        let mut grid_rng = keyed_rng(key.seed, key.streams.grid, key.pass, 0);
+        let (ox, oy) = (grid_rng.random_range(0..w), grid_rng.random_range(0..h));
+        let (nx, ny) = (
+            tiles_along(w, self.reach.0, self.target),
+            tiles_along(h, self.reach.1, self.target),
+        );
+        let mut tiles = Vec::with_capacity((nx * ny) as usize);
+        for ty in 0..ny {
+            for tx in 0..nx {
+                let x = self.axis(tx, nx, w, ox, self.reach.0);
+                let y = self.axis(ty, ny, h, oy, self.reach.1);
+                tiles.push(Tile {
+                    x0: x.start,
+                    y0: y.start,
+                    w: x.len,
+                    h: y.len,
+                    rx0: x.region_start,
+                    ry0: y.region_start,
+                    rw: x.region_len,
+                    rh: y.region_len,
+                    inset_x: x.inset,
+                    inset_y: y.inset,
+                    wrap_x: x.wraps,
+                    wrap_y: y.wraps,
+                    colour: ((tx % 2) + 2 * (ty % 2)) as u8,
+                    id: u64::from(ty) * u64::from(nx) + u64::from(tx),
+                });
+            }
+        }
+        tiles
+    }
+
+    /// Tile `i` of `n` along an axis of `size` pixels, the grid shifted by `offset`.
+    fn axis(&self, i: u32, n: u32, size: u32, offset: u32, reach: u32) -> Span {
+        if n == 1 {
+            let start = match self.span_start {
+                SpanStart::PassOffset => offset,
+                SpanStart::Origin => 0,
+            };
+            return Span {
+                start,
+                len: size,
+                region_start: start,
+                region_len: size,
+                inset: 0,
+                wraps: true,
+            };
+        }
+        let bound = |i: u32| (u64::from(i) * u64::from(size) / u64::from(n)) as u32;
+        let start = (offset + bound(i)) % size;
+        let len = bound(i + 1) - bound(i);
+        Span {
+            start,
+            len,
+            region_start: (start + size - reach) % size,
+            region_len: len + 2 * reach,
+            inset: reach,
+            wraps: false,
+        }
+    }
+}
+
+/// One tile along one axis.
+struct Span {
+    start: u32,
+    len: u32,
+    region_start: u32,
+    region_len: u32,
+    inset: u32,
+    wraps: bool,
+}
+
+/// One tile of a pass: columns `x0..x0 + w` and rows `y0..y0 + h` (both modulo the frame) in
+/// every frame, and its region: columns `rx0..rx0 + rw` and rows `ry0..ry0 + rh` (modulo the
+/// frame), the tile widened by the reach on each side, or the whole axis where one tile spans it.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Tile {
+    /// First column and row of the tile.
+    pub x0: u32,
+    pub y0: u32,
+    /// The tile's size in pixels.
+    pub w: u32,
+    pub h: u32,
+    /// First column and row of the region.
+    pub rx0: u32,
+    pub ry0: u32,
+    /// The region's size in pixels.
+    pub rw: u32,
+    pub rh: u32,
+    /// The tile's first column and row within its region: the reach, or 0 where the region
+    /// spans the axis.
+    pub inset_x: u32,
+    pub inset_y: u32,
+    /// The region spans the whole axis (one tile along it): offsets wrap around it.
+    pub wrap_x: bool,
+    pub wrap_y: bool,
+    /// Colour, `0..4`: tiles of one colour run in parallel.
+    pub colour: u8,
+    /// Index in the pass's grid, row by row: keys the tile's random stream.
+    pub id: u64,
+}
+
+impl Tile {
+    /// One tile over the whole `width × height` frame, its region wrapping on both axes.
+    pub(crate) fn whole(width: u32, height: u32) -> Tile {
+        Tile {
+            x0: 0,
+            y0: 0,
+            w: width,
+            h: height,
+            rx0: 0,
+            ry0: 0,
+            rw: width,
+            rh: height,
+            inset_x: 0,
+            inset_y: 0,
+            wrap_x: true,
+            wrap_y: true,
+            colour: 0,
+            id: 0,
+        }
+    }
+
+    /// Pixels of the tile in one frame.
+    #[inline(always)]
+    pub(crate) fn pixels(&self) -> u32 {
+        self.w * self.h
+    }
+
+    /// Region coordinates of tile pixel `i` (row by row).
+    #[inline(always)]
+    pub(crate) fn local(&self, i: u32) -> (u32, u32) {
+        (i % self.w + self.inset_x, i / self.w + self.inset_y)
+    }
+
+    /// Calls `run(volume, region, len)` for each run of `len` pixels of the region that is
+    /// contiguous in a `width × height × depth` volume, in region order (frame, row, column):
+    /// `volume` is the index of its first pixel in the volume (`(z · height + y) · width + x`),
+    /// `region` in the region (`(z · rh + y) · rw + x`).
+    pub(crate) fn region_runs(&self, size: (u32, u32, u32), run: impl FnMut(usize, usize, usize)) {
+        let rect = (self.rx0, self.ry0, self.rw, self.rh);
+        self.runs(rect, (0, 0), size, run);
+    }
+
+    /// [`Tile::region_runs`] for the tile's own pixels: `region` is the index of the run's first
+    /// pixel in the region.
+    pub(crate) fn tile_runs(&self, size: (u32, u32, u32), run: impl FnMut(usize, usize, usize)) {
+        let rect = (self.x0, self.y0, self.w, self.h);
+        self.runs(rect, (self.inset_x, self.inset_y), size, run);
+    }
+
+    /// The runs of the rectangle `rect` (first column and row, width and height) of the
+    /// volume, placed at `inset` in the region.
+    fn runs(
+        &self,
+        (x0, y0, w, h): (u32, u32, u32, u32),
+        (inset_x, inset_y): (u32, u32),
+        (width, height, depth): (u32, u32, u32),
+        mut run: impl FnMut(usize, usize, usize),
+    ) {
+        let (x0, w, width) = (x0 as usize, w as usize, width as usize);
+        let (rw, rh) = (self.rw as usize, self.rh as usize);
+        let first = w.min(width - x0);
+        for z in 0..depth as usize {
+            for ly in 0..h as usize {
+                let y = (y0 as usize + ly) % height as usize;
+                let row = (z * height as usize + y) * width;
+                let local = (z * rh + ly + inset_y as usize) * rw + inset_x as usize;
+                run(row + x0, local, first);
+                if first < w {
+                    run(row, local + first, w - first);
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tiles_keep_same_colour_apart() {
+        // The vector swap optimiser's and the filter-adapted optimiser's targets.
+        let targets = [
+            crate::swap::TILE_TARGET,
+            crate::swap::ASSIGNMENT_TILE_TARGET,
+            crate::filter_adapted::optimizer::Optimizer::TILE_TARGET,
+        ];
+        for target in targets {
+            for size in 1..100 {
+                for reach in 0..8 {
+                    let n = tiles_along(size, reach, target);
+                    assert!(n == 1 || n.is_multiple_of(2));
+                    if n > 1 {
+                        assert!(size / n >= 2 * reach, "{size} {reach} {n}");
+                    }
+                }
+            }
+        }
+    }
+
+    /// Every pixel lies in exactly one tile; a tile's region holds the tile widened by the
+    /// reach (or the whole axis); the regions of one colour's tiles are disjoint.
+    #[test]
+    fn tiles_cover_each_pixel_once_and_regions_of_a_colour_are_disjoint() {
+        for span_start in [SpanStart::PassOffset, SpanStart::Origin] {
+            for (width, height, reach) in [(64, 48, (4, 4)), (9, 40, (2, 3)), (5, 3, (1, 0))] {
+                let layout = Layout {
+                    width,
+                    height,
+                    reach,
+                    target: 16,
+                    span_start,
+                };
+                for pass in 0..6 {
+                    let key = PassKey {
+                        seed: 3,
+                        streams: crate::rng::VECTOR,
+                        pass,
+                    };
+                    let mut owner = vec![0u32; (width * height) as usize];
+                    let mut region_colour = vec![[0u32; 4]; (width * height) as usize];
+                    for tile in layout.tiles(key) {
+                        for i in 0..tile.pixels() {
+                            let (lx, ly) = tile.local(i);
+                            assert!(lx < tile.rw && ly < tile.rh);
+                            let x = (tile.rx0 + lx) % width;
+                            let y = (tile.ry0 + ly) % height;
+                            assert_eq!(x, (tile.x0 + i % tile.w) % width);
+                            assert_eq!(y, (tile.y0 + i / tile.w) % height);
+                            if !tile.wrap_x {
+                                assert!(lx >= reach.0 && lx + reach.0 < tile.rw);
+                            }
+                            if !tile.wrap_y {
+                                assert!(ly >= reach.1 && ly + reach.1 < tile.rh);
+                            }
+                            owner[(y * width + x) as usize] += 1;
+                        }
+                        for ly in 0..tile.rh {
+                            for lx in 0..tile.rw {
+                                let x = (tile.rx0 + lx) % width;
+                                let y = (tile.ry0 + ly) % height;
+                                region_colour[(y * width + x) as usize][tile.colour as usize] += 1;
+                            }
+                        }
+                    }
+                    assert!(owner.iter().all(|&n| n == 1), "{width}x{height} {reach:?}");
+                    assert!(region_colour.iter().flatten().all(|&n| n <= 1));
+                }
+            }
+        }
+    }
+}
