@@ -10,6 +10,7 @@
 use std::collections::BTreeMap;
 
 use crate::spec::{EnergyTopology, MaskSpec};
+use crate::torus::{canonical, wrap};
 
 /// A fixed-point weight: the real weight (peak 1) times the kernel's scale, which is chosen so the
 /// weights sum below [`EnergyKernel::MAX_TOTAL`].
@@ -93,17 +94,6 @@ pub struct EnergyKernel {
     min_dz: i32,
     max_dz: i32,
     total: u64,
-}
-
-/// The representative of `offset mod size` in `(-size/2, size/2]`.
-fn canonical(offset: i64, size: u32) -> i32 {
-    let size = i64::from(size);
-    let wrapped = offset.rem_euclid(size);
-    (if wrapped > size / 2 {
-        wrapped - size
-    } else {
-        wrapped
-    }) as i32
 }
 
 /// Per-axis bound on enumerated offsets, in periods: beyond two periods every wrapped offset
@@ -318,18 +308,6 @@ enum Wraps {
     OnlyZ,
     /// Any coordinate.
     Any,
-}
-
-/// `t` wrapped into `0..size`, for `t` in `-size..2 * size`.
-#[inline(always)]
-fn wrap(t: i32, size: u32) -> i32 {
-    if t < 0 {
-        t + size as i32
-    } else if t >= size as i32 {
-        t - size as i32
-    } else {
-        t
-    }
 }
 
 #[cfg(test)]

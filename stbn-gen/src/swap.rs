@@ -121,8 +121,10 @@ use rayon::prelude::*;
 
 use rand_chacha::ChaCha8Rng;
 
+use crate::fastmath::{exp_neg, exp_neg_f32, inverse_cbrt_f32};
 use crate::rng::{self, other_index};
 use crate::schedule::{self, Layout, PassKey, SpanStart, Tile, TileOptimizer};
+use crate::torus::{canonical, wrap};
 use crate::vector::{TracePoint, VectorSpec};
 
 /// Preferred tile side in pixels (tiles are never narrower than twice the kernel's reach): 16
@@ -153,87 +155,6 @@ const LANES: usize = 4;
 /// entries (`f32` lanes of an AVX-512 register, two AVX2 ones).
 const FACTOR_LANES: usize = 16;
 
-/// `e^−x` for `x ≥ 0` (`+∞` allowed), to within a few units in the last place; results below
-/// `e^−708` come out as `e^−708` (≈ 3·10⁻³⁰⁸). Basic IEEE operations only, so bit-identical on
-/// every platform, and branch-free, so loops over it vectorise.
-#[inline(always)]
-pub fn exp_neg(x: f64) -> f64 {
-    const LOG2_E: f64 = std::f64::consts::LOG2_E;
-    // ln 2 split so that k · LN2_HI is exact for |k| < 2^11.
-    const LN2_HI: f64 = f64::from_bits(0x3fe6_2e42_fee0_0000);
-    const LN2_LO: f64 = f64::from_bits(0x3dea_39ef_3579_3c76);
-    // 1.5 · 2^52: adding it rounds to an integer held in the low mantissa bits.
-    const ROUND: f64 = 6_755_399_441_055_744.0;
-    let x = x.min(708.0);
-    let shifted = x * LOG2_E + ROUND;
-    let k = shifted - ROUND;
-    // e^−x = 2^−k · e^−r with r = x − k ln 2 in [−ln2/2, ln2/2].
-    let r = (x - k * LN2_HI) - k * LN2_LO;
-    let t = -r;
-    // Taylor series of e^t to degree 12: error below 2·10⁻¹⁶ relative for |t| ≤ 0.35.
-    let mut p = 1.0 / 479_001_600.0;
-    p = p * t + 1.0 / 39_916_800.0;
-    p = p * t + 1.0 / 3_628_800.0;
-    p = p * t + 1.0 / 362_880.0;
-    p = p * t + 1.0 / 40_320.0;
-    p = p * t + 1.0 / 5_040.0;
-    p = p * t + 1.0 / 720.0;
-    p = p * t + 1.0 / 120.0;
-    p = p * t + 1.0 / 24.0;
-    p = p * t + 1.0 / 6.0;
-    p = p * t + 0.5;
-    p = p * t + 1.0;
-    p = p * t + 1.0;
-    // 2^−k from the integer in the low bits of `shifted` (0 ≤ k ≤ 1022).
-    let k_int = shifted.to_bits() & 0x7ff;
-    p * f64::from_bits((1023 - k_int) << 52)
-}
-
-/// `e^−x` in single precision for `x ≥ 0` (`+∞` allowed), relative error below 2·10⁻⁷; results
-/// below `e^−87` come out as `e^−87` (≈ 1.6·10⁻³⁸). [`exp_neg`]'s method in `f32`: a Taylor
-/// polynomial of degree 7 on the reduced argument `|t| ≤ ln2/2` (truncation 6·10⁻⁹).
-#[inline(always)]
-fn exp_neg_f32(x: f32) -> f32 {
-    const LOG2_E: f32 = std::f32::consts::LOG2_E;
-    // ln 2 split so that k · LN2_HI is exact for |k| < 2^8.
-    const LN2_HI: f32 = 0.693_359_4;
-    const LN2_LO: f32 = -2.121_944_4e-4;
-    // 1.5 · 2^23: adding it rounds to an integer held in the low mantissa bits.
-    const ROUND: f32 = 12_582_912.0;
-    let x = x.min(87.0);
-    let shifted = x * LOG2_E + ROUND;
-    let k = shifted - ROUND;
-    let t = -((x - k * LN2_HI) - k * LN2_LO);
-    let mut p = 1.0 / 5_040.0;
-    p = p * t + 1.0 / 720.0;
-    p = p * t + 1.0 / 120.0;
-    p = p * t + 1.0 / 24.0;
-    p = p * t + 1.0 / 6.0;
-    p = p * t + 0.5;
-    p = p * t + 1.0;
-    p = p * t + 1.0;
-    // 2^−k from the integer in the low bits of `shifted` (0 ≤ k ≤ 126).
-    let k_int = shifted.to_bits() & 0xff;
-    p * f32::from_bits((127 - k_int) << 23)
-}
-
-/// `s^(−1/3)` in single precision for `s > 0` (huge but finite for `s = 0`), relative error
-/// below 3·10⁻⁷. A first guess from the bits of `s` (off by at most 3.5%), then three steps of
-/// Newton's iteration `r ← r (4 − s r³) / 3` (error `e ↦ 2e²`: 3.5% → 2.4·10⁻³ → 1.2·10⁻⁵ →
-/// rounding).
-#[inline(always)]
-fn inverse_cbrt_f32(s: f32) -> f32 {
-    // The exponent field of s^(−1/3) is about (4/3)·127 − bits(s)/3 (in units of 2^23), with the
-    // division by 3 as a widening multiply.
-    let third = ((u64::from(s.to_bits()) * 0xAAAA_AAAB) >> 33) as u32;
-    let mut r = f32::from_bits(0x54a2_32abu32.wrapping_sub(third));
-    for _ in 0..3 {
-        let sr3 = ((s * r) * r) * r;
-        r = r * (4.0 - sr3) * (1.0 / 3.0);
-    }
-    r
-}
-
 /// `‖v‖^(D/3)` of a vector with squared norm `s`, for `D` value components, in single precision.
 #[inline(always)]
 fn distance_power<const D: usize>(s: f32) -> f32 {
@@ -263,17 +184,6 @@ fn distance_power<const D: usize>(s: f32) -> f32 {
 #[inline(always)]
 fn value_factor<const D: usize>(s: f32, inv_sigma_value_sq: f32) -> f32 {
     exp_neg_f32(distance_power::<D>(s) * inv_sigma_value_sq)
-}
-
-/// The representative of `offset mod size` in `(−size/2, size/2]`.
-fn canonical(offset: i64, size: u32) -> i32 {
-    let size = i64::from(size);
-    let wrapped = offset.rem_euclid(size);
-    (if wrapped > size / 2 {
-        wrapped - size
-    } else {
-        wrapped
-    }) as i32
 }
 
 /// The truncated, folded pair weights of one [`VectorSpec`] and the value factor's parameters.
@@ -864,19 +774,6 @@ impl SwapKernel {
         } else {
             None
         }
-    }
-}
-
-/// `t` wrapped into `0..size`, for `t` in `−size..2 · size`.
-#[inline(always)]
-fn wrap(t: i32, size: u32) -> i32 {
-    let size = size as i32;
-    if t < 0 {
-        t + size
-    } else if t >= size {
-        t - size
-    } else {
-        t
     }
 }
 
@@ -1570,45 +1467,6 @@ mod tests {
     use super::*;
     use crate::rng::keyed_rng;
     use rand::RngExt;
-
-    #[test]
-    fn exp_neg_matches_std() {
-        let mut worst: f64 = 0.0;
-        // Up to 707 (beyond 708 the result is clamped to e^−708 by design).
-        for i in 0..191_000 {
-            let x = i as f64 * 0.0037;
-            let rel = (exp_neg(x) - (-x).exp()).abs() / (-x).exp();
-            worst = worst.max(rel);
-        }
-        assert!(worst < 1e-15, "worst relative error {worst}");
-        assert_eq!(exp_neg(0.0), 1.0);
-        assert!(exp_neg(f64::INFINITY) < 1e-300);
-    }
-
-    #[test]
-    fn single_precision_exp_and_cube_root_match_std() {
-        let (mut worst_exp, mut worst_cbrt): (f64, f64) = (0.0, 0.0);
-        for i in 0..200_000 {
-            // exp: up to 86 (beyond 87 the result is clamped by design).
-            let x = i as f32 * 4.3e-4;
-            let exact = (-f64::from(x)).exp();
-            worst_exp = worst_exp.max((f64::from(exp_neg_f32(x)) - exact).abs() / exact);
-            let s = (i + 1) as f32 * 2.3e-5;
-            for s in [s, s * 1e-20, s * 1e20] {
-                let exact = f64::from(s).powf(-1.0 / 3.0);
-                let got = f64::from(inverse_cbrt_f32(s));
-                worst_cbrt = worst_cbrt.max((got - exact).abs() / exact);
-            }
-        }
-        assert!(worst_exp < 2e-7, "exp: worst relative error {worst_exp}");
-        assert!(
-            worst_cbrt < 3e-7,
-            "cube root: worst relative error {worst_cbrt}"
-        );
-        assert_eq!(exp_neg_f32(0.0), 1.0);
-        assert!(exp_neg_f32(f32::INFINITY) < 1e-37);
-        assert!(inverse_cbrt_f32(0.0).is_finite());
-    }
 
     #[test]
     fn value_factor_matches_std() {

@@ -426,44 +426,8 @@ pub fn generate_vector_with_progress(
     progress: &mut dyn FnMut(VectorProgress),
 ) -> Result<(VectorVolume, EnergyTrace), VectorSpecError> {
     spec.validate()?;
-    let dims = spec.space.dims();
-    let n = spec.slice_pixels() as usize;
-    let ranks = match spec.initial_arrangement {
-        InitialArrangement::Random => None,
-        InitialArrangement::ScalarStbn => Some(crate::generate(&MaskSpec::new(
-            spec.width,
-            spec.height,
-            spec.depth,
-            spec.seed,
-        ))?),
-    };
-    let mut values = vec![0.0f32; n * spec.depth as usize * dims];
-    let sampler = spec.space.stratified_sampler();
-    values
-        .par_chunks_mut(n * dims)
-        .enumerate()
-        .for_each(|(z, slice)| {
-            let mut rng = keyed_rng(spec.seed, rng::VECTOR.init, z as u64, 0);
-            let set = sampler.slice(n, &mut rng);
-            match &ranks {
-                None => slice.copy_from_slice(&set),
-                Some(mask) => {
-                    let mut order: Vec<(u64, u32)> = set
-                        .chunks_exact(dims)
-                        .enumerate()
-                        .map(|(i, v)| (hilbert_key(&spec.space, v), i as u32))
-                        .collect();
-                    order.sort_unstable();
-                    for (pixel, &rank) in mask.slice(z as u32).iter().enumerate() {
-                        let from = order[rank as usize].1 as usize * dims;
-                        slice[pixel * dims..(pixel + 1) * dims]
-                            .copy_from_slice(&set[from..from + dims]);
-                    }
-                }
-            }
-        });
-    drop(ranks);
-
+    let size = (spec.width, spec.height, spec.depth);
+    let values = arranged_start(size, spec.seed, &spec.space, spec.initial_arrangement)?;
     let mut optimizer = SwapOptimizer::new(spec, values);
     let mut trace = EnergyTrace {
         points: vec![TracePoint {
@@ -496,9 +460,56 @@ pub fn generate_vector_with_progress(
         trace.points.push(point);
     }
 
-    let size = (spec.width, spec.height, spec.depth);
     Ok((
         VectorVolume::new(size, &spec.space, optimizer.into_values()),
         trace,
     ))
+}
+
+/// Each slice's stratified set of `space` (one random stream per slice), arranged as
+/// `arrangement` says: the start of every vector mask, of the swap optimiser
+/// ([`generate_vector`]) and of the filter-adapted one
+/// ([`crate::generate_filter_adapted_vector`]) alike. Index `((z · height + y) · width + x) ·
+/// dims + c`.
+pub(crate) fn arranged_start(
+    (width, height, depth): (u32, u32, u32),
+    seed: u64,
+    space: &SampleSpace,
+    arrangement: InitialArrangement,
+) -> Result<Vec<f32>, SpecError> {
+    let dims = space.dims();
+    let n = width as usize * height as usize;
+    let ranks = match arrangement {
+        InitialArrangement::Random => None,
+        InitialArrangement::ScalarStbn => {
+            Some(crate::generate(&MaskSpec::new(width, height, depth, seed))?)
+        }
+    };
+    let mut values = vec![0.0f32; n * depth as usize * dims];
+    let sampler = space.stratified_sampler();
+    values
+        .par_chunks_mut(n * dims)
+        .enumerate()
+        .for_each(|(z, slice)| {
+            let mut rng = keyed_rng(seed, rng::VECTOR.init, z as u64, 0);
+            let set = sampler.slice(n, &mut rng);
+            match &ranks {
+                None => slice.copy_from_slice(&set),
+                Some(mask) => {
+                    // Sorted along the Hilbert curve, handed out in the scalar mask's rank order.
+                    let mut order: Vec<(u64, u32)> = set
+                        .chunks_exact(dims)
+                        .enumerate()
+                        .map(|(i, v)| (hilbert_key(space, v), i as u32))
+                        .collect();
+                    order.sort_unstable();
+                    for (pixel, &rank) in mask.slice(z as u32).iter().enumerate() {
+                        let from = order[rank as usize].1 as usize * dims;
+                        slice[pixel * dims..(pixel + 1) * dims]
+                            .copy_from_slice(&set[from..from + dims]);
+                    }
+                }
+            }
+        });
+    Ok(values)
 }

@@ -31,7 +31,8 @@
 
 use std::fmt;
 
-use crate::swap::exp_neg;
+use crate::fastmath::exp_neg;
+use crate::torus::canonical;
 
 /// The spatial filter a mask is optimised for, applied separably along x and y.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -370,20 +371,6 @@ fn exponential_history(alpha: f64, beta: f64, d: usize) -> Vec<f64> {
     out.iter().map(|w| w / total).collect()
 }
 
-/// `Δ ∈ 0..len` as the toroidal offset in `(−len/2, len/2]`.
-fn canonical(lag: usize, len: usize) -> i32 {
-    if 2 * lag <= len {
-        lag as i32
-    } else {
-        lag as i32 - len as i32
-    }
-}
-
-/// `offset mod len` as the toroidal offset in `(−len/2, len/2]`.
-pub(crate) fn canonical_offset(offset: i64, len: u32) -> i32 {
-    canonical(offset.rem_euclid(i64::from(len)) as usize, len as usize)
-}
-
 /// The filters' autocorrelations on a mask's axes, truncated ([module docs](self)) and
 /// normalised to sum 1 per factor: the real pair weights before they become integers.
 #[derive(Clone, Debug, PartialEq)]
@@ -414,7 +401,11 @@ impl PairWeights {
         for (ly, &wy) in ay.iter().enumerate() {
             for (lx, &wx) in ax.iter().enumerate() {
                 if wx * wy >= tolerance * peak {
-                    kept.push((canonical(lx, ax.len()), canonical(ly, ay.len()), wx * wy));
+                    kept.push((
+                        canonical(lx as i64, ax.len() as u32),
+                        canonical(ly as i64, ay.len() as u32),
+                        wx * wy,
+                    ));
                 }
             }
         }
@@ -426,7 +417,7 @@ impl PairWeights {
             .iter()
             .enumerate()
             .filter(|&(_, &w)| w >= tolerance * at[0])
-            .map(|(l, &w)| (canonical(l, at.len()), w))
+            .map(|(l, &w)| (canonical(l as i64, at.len() as u32), w))
             .collect();
         let total: f64 = times.iter().map(|t| t.1).sum();
         times.iter_mut().for_each(|t| t.1 /= total);
@@ -523,8 +514,8 @@ impl SameFrame {
 
     /// The weight of two pixels of one frame `(dx, dy)` apart (any integers).
     pub(crate) fn get(&self, dx: i64, dy: i64) -> i64 {
-        let dx = canonical_offset(dx, self.width);
-        let dy = canonical_offset(dy, self.height);
+        let dx = canonical(dx, self.width);
+        let dy = canonical(dy, self.height);
         let (rx, ry) = (self.reach.0 as i32, self.reach.1 as i32);
         if dx.abs() > rx || dy.abs() > ry {
             return 0;
@@ -777,7 +768,7 @@ impl ScanKernel {
             for &(dx, dy, s) in &term.spatial {
                 for (k, &t) in term.temporal.iter().enumerate() {
                     if t != 0 {
-                        let dz = canonical_offset(i64::from(term.t0) + k as i64, self.depth);
+                        let dz = canonical(i64::from(term.t0) + k as i64, self.depth);
                         all.push(((dx, dy, dz), s * i64::from(t)));
                     }
                 }
@@ -901,7 +892,7 @@ mod tests {
                             .binary_search_by_key(&o, |w| w.0)
                             .map_or(0, |i| weights[i].1)
                     };
-                    let canon = |v: i32, n: u32| canonical_offset(i64::from(v), n);
+                    let canon = |v: i32, n: u32| canonical(i64::from(v), n);
                     for &((dx, dy, dz), g) in &weights {
                         let mirror = (canon(-dx, size.0), canon(-dy, size.1), canon(-dz, size.2));
                         assert_eq!(

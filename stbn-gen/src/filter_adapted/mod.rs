@@ -64,9 +64,9 @@ use rand::seq::SliceRandom;
 use rayon::prelude::*;
 
 use crate::rng::{self, keyed_rng};
-use crate::space::{SampleSpace, hilbert_key};
+use crate::space::SampleSpace;
 use crate::spec::{MaskSpec, SpecError};
-use crate::vector::{EnergyTrace, InitialArrangement, TracePoint};
+use crate::vector::{EnergyTrace, InitialArrangement, TracePoint, arranged_start};
 use crate::volume::Volume;
 use crate::{VectorVolume, generate};
 use filters::{Kernel, PairWeights, ScanKernel};
@@ -566,8 +566,9 @@ fn projection_directions(dims: usize) -> Vec<Vec<f64>> {
     out
 }
 
-/// Each frame's stratified set of `space` in pixel order as `spec` arranges it (as
-/// `generate_vector` does), and the energy of `spec`'s value kernel over it with the trace's unit.
+/// Each frame's stratified set of `space` in pixel order as `spec` arranges it
+/// ([`arranged_start`], the start of every vector mask), and the energy of `spec`'s value kernel
+/// over it with the trace's unit.
 fn vector_setup(
     spec: &FilterAdaptedSpec,
     space: &SampleSpace,
@@ -575,37 +576,7 @@ fn vector_setup(
     let dims = space.dims();
     let (w, h, d) = (spec.width, spec.height, spec.depth);
     let n = spec.slice_pixels() as usize;
-    let ranks = match spec.initial_arrangement {
-        InitialArrangement::Random => None,
-        InitialArrangement::ScalarStbn => Some(generate(&MaskSpec::new(w, h, d, spec.seed))?),
-    };
-    // Each frame's stratified set, in pixel order as arranged (as `generate_vector` does).
-    let mut values = vec![0.0f32; n * d as usize * dims];
-    let sampler = space.stratified_sampler();
-    values
-        .par_chunks_mut(n * dims)
-        .enumerate()
-        .for_each(|(z, slice)| {
-            let mut rng = keyed_rng(spec.seed, rng::VECTOR.init, z as u64, 0);
-            let set = sampler.slice(n, &mut rng);
-            match &ranks {
-                None => slice.copy_from_slice(&set),
-                Some(mask) => {
-                    let mut order: Vec<(u64, u32)> = set
-                        .chunks_exact(dims)
-                        .enumerate()
-                        .map(|(i, v)| (hilbert_key(space, v), i as u32))
-                        .collect();
-                    order.sort_unstable();
-                    for (pixel, &rank) in mask.slice(z as u32).iter().enumerate() {
-                        let from = order[rank as usize].1 as usize * dims;
-                        slice[pixel * dims..(pixel + 1) * dims]
-                            .copy_from_slice(&set[from..from + dims]);
-                    }
-                }
-            }
-        });
-    drop(ranks);
+    let values = arranged_start((w, h, d), spec.seed, space, spec.initial_arrangement)?;
     let weights = spec.pair_weights();
     let (energy, unit) = match spec.value_kernel {
         ValueKernel::Distance => {
