@@ -28,6 +28,7 @@ pub mod spec;
 pub mod swap;
 pub mod tellusim;
 mod torus;
+mod trace;
 pub mod vector;
 pub mod void_cluster;
 pub mod volume;

@@ -16,7 +16,9 @@ use rayon::prelude::*;
 use crate::rng::{self, keyed_rng};
 use crate::space::{SampleSpace, hilbert_key};
 use crate::spec::{MaskSpec, SpecError};
-use crate::swap::SwapOptimizer;
+use crate::swap::{SwapConfig, SwapOptimizer};
+// The trace types are the generators' common output; they stay reachable here too.
+pub use crate::trace::{EnergyTrace, TracePoint};
 
 /// How each slice's stratified values are arranged before the swaps.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -242,6 +244,21 @@ pub enum VectorSpecError {
     InvalidAssignmentPasses(u32),
 }
 
+impl From<&VectorSpec> for SwapConfig {
+    fn from(spec: &VectorSpec) -> SwapConfig {
+        SwapConfig {
+            width: spec.width,
+            height: spec.height,
+            depth: spec.depth,
+            dims: spec.space.dims(),
+            seed: spec.seed,
+            sigma_image: spec.sigma_image,
+            sigma_value: spec.sigma_value,
+            kernel_tolerance: spec.kernel_tolerance,
+        }
+    }
+}
+
 impl From<SpecError> for VectorSpecError {
     fn from(e: SpecError) -> Self {
         VectorSpecError::Spec(e)
@@ -376,26 +393,6 @@ impl VectorVolume {
     pub fn pdf(&self) -> Option<&[f32]> {
         self.pdf.as_deref()
     }
-}
-
-/// One point of an [`EnergyTrace`]: the totals after a pass (the first point is the initial
-/// state, before any swap).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct TracePoint {
-    /// Swaps proposed so far (an assignment pass's moves count one each).
-    pub swaps_attempted: u64,
-    /// Swaps kept so far (an assignment pass's kept permutations count one each).
-    pub swaps_accepted: u64,
-    /// The mask's energy ([`crate::swap`]): the initial energy computed from scratch plus the
-    /// exact delta of every accepted swap or permutation.
-    pub energy: f64,
-}
-
-/// Energy against work: one [`TracePoint`] before optimisation and one after each pass.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct EnergyTrace {
-    /// In order of work done.
-    pub points: Vec<TracePoint>,
 }
 
 /// Progress of one vector generation, reported after each quarter pass (one tile colour).

@@ -1,0 +1,335 @@
+//! The energy of vector masks ([module docs](super)): the truncated pair weights
+//! ([`SwapKernel`]), the value factor every energy goes through, and energies from scratch.
+
+use std::collections::BTreeMap;
+
+use rayon::prelude::*;
+
+use super::SwapConfig;
+use crate::fastmath::{exp_neg, exp_neg_f32, inverse_cbrt_f32};
+use crate::torus::canonical;
+
+/// Partial sums of [`lane_sum`] (`f64` lanes of an AVX2 register).
+const LANES: usize = 4;
+
+/// Padding of the neighbour buffers: the value factor loop runs whole chunks of this many
+/// entries (`f32` lanes of an AVX-512 register, two AVX2 ones).
+pub(super) const FACTOR_LANES: usize = 16;
+
+/// `‖v‖^(D/3)` of a vector with squared norm `s`, for `D` value components, in single precision.
+#[inline(always)]
+fn distance_power<const D: usize>(s: f32) -> f32 {
+    match D {
+        // s^(1/6) = √s · s^(−1/3)
+        1 => s.sqrt() * inverse_cbrt_f32(s),
+        // s^(1/3) = s · (s^(−1/3))²
+        2 => {
+            let r = inverse_cbrt_f32(s);
+            (s * r) * r
+        }
+        3 => s.sqrt(),
+        // s^(2/3) = s · s^(−1/3)
+        _ => s * inverse_cbrt_f32(s),
+    }
+}
+
+/// The value factor `exp(−x)`, `x = ‖a − b‖^(D/3) / σs²`, from `s = ‖a − b‖²` (computed in `f32`
+/// from the `f32` values, components in order), to a relative `5·10⁻⁷ · max(1, x)`.
+///
+/// This function *is* the energy's value term: every energy, cached or recomputed, goes through
+/// it, so they agree to the rounding of the `f64` sums. Single precision evaluates 8 lanes per
+/// AVX2 instruction instead of 4; together with the shorter polynomial that made the optimiser
+/// about 1.4× faster than an `f64` version with a degree-9 polynomial (64×64×32 Vec2, 16 swaps
+/// per pixel, AVX2, two runs each: 0.61–0.64 s against 0.88–0.89 s; `f64` with [`exp_neg`]'s
+/// degree 12 and four Newton steps took 1.06 s).
+#[inline(always)]
+pub(super) fn value_factor<const D: usize>(s: f32, inv_sigma_value_sq: f32) -> f32 {
+    exp_neg_f32(distance_power::<D>(s) * inv_sigma_value_sq)
+}
+
+/// `Σ x` with four interleaved partial sums (a fixed order: deterministic).
+#[inline(always)]
+pub(super) fn lane_sum(x: &[f64]) -> f64 {
+    let mut lanes = [0.0f64; LANES];
+    let chunks = x.chunks_exact(LANES);
+    let rest = chunks.remainder();
+    for chunk in chunks {
+        for (lane, &t) in lanes.iter_mut().zip(chunk) {
+            *lane += t;
+        }
+    }
+    rest.iter()
+        .fold((lanes[0] + lanes[1]) + (lanes[2] + lanes[3]), |s, &t| s + t)
+}
+
+/// `‖a − b‖²` in single precision, components in order: the value distance every energy uses
+/// (`(a − b)² = (b − a)²` exactly, so it is symmetric).
+#[inline(always)]
+pub(super) fn squared_distance<const D: usize>(a: &[f32; D], b: &[f32; D]) -> f32 {
+    let mut s = 0.0;
+    for c in 0..D {
+        s += (a[c] - b[c]) * (a[c] - b[c]);
+    }
+    s
+}
+
+/// `factor[k] = value_factor(distance[k])` over whole chunks of [`FACTOR_LANES`] (the buffers
+/// are padded), so the loop runs one AVX-512 instruction per 16 entries, or AVX2 per 8.
+#[inline(always)]
+pub(super) fn value_factors<const D: usize>(
+    distance: &[f32],
+    factor: &mut [f32],
+    inv_sigma_value_sq: f32,
+) {
+    for (f, &s) in factor.iter_mut().zip(distance) {
+        *f = value_factor::<D>(s, inv_sigma_value_sq);
+    }
+}
+
+/// The truncated, folded pair weights of one vector mask's energy and the value factor's
+/// parameters.
+#[derive(Clone, Debug)]
+pub struct SwapKernel {
+    pub(super) width: u32,
+    pub(super) height: u32,
+    pub(super) depth: u32,
+    pub(super) dims: usize,
+    /// Same-slice neighbours: canonical `(dx, dy)` (never `(0, 0)`), weight.
+    pub(super) spatial: Vec<(i32, i32, f64)>,
+    /// Same-position neighbours: canonical `dz` (never 0), weight.
+    pub(super) temporal: Vec<(i32, f64)>,
+    /// Extremes of the spatial taps' `dx` and `dy`.
+    pub(super) dx_range: (i32, i32),
+    pub(super) dy_range: (i32, i32),
+    /// The spatial tap of each offset in those ranges (row `dy`, column `dx`), `u32::MAX` where
+    /// there is none.
+    pub(super) tap_at_offset: Vec<u32>,
+    /// `1/σs²` in single precision, as [`value_factor`] takes it.
+    pub(super) inv_sigma_value_sq: f32,
+    /// Deltas must be below `−margin` for a swap to be accepted.
+    pub(super) margin: f64,
+}
+
+impl SwapKernel {
+    /// The kernel of `config`, which must come from a [validated](crate::VectorSpec::validate)
+    /// spec (a `&VectorSpec` converts into one).
+    pub fn new(config: impl Into<SwapConfig>) -> SwapKernel {
+        let config = config.into();
+        let (w, h, d) = (config.width, config.height, config.depth);
+        let tol = config.kernel_tolerance;
+        let inv_si = 1.0 / (config.sigma_image * config.sigma_image);
+        // exp(−r²/σi²) ≥ tol ⇔ r ≤ σi √ln(1/tol); enumerate one pixel further and let exp_neg
+        // decide, at most two periods per axis.
+        let bound = (config.sigma_image * (1.0 / tol).ln().sqrt()).ceil() + 1.0;
+        let reach = |size: u32| -> i64 {
+            let cap = 2 * i64::from(size);
+            if bound >= cap as f64 {
+                cap
+            } else {
+                bound as i64
+            }
+        };
+        let (rx, ry, rz) = (reach(w), reach(h), reach(d));
+        let weight = |r2: i64| {
+            let e = exp_neg(r2 as f64 * inv_si);
+            (e >= tol).then_some(e)
+        };
+        let mut spatial: BTreeMap<(i32, i32), f64> = BTreeMap::new();
+        for dy in -ry..=ry {
+            for dx in -rx..=rx {
+                if let Some(e) = weight(dx * dx + dy * dy) {
+                    let key = (canonical(dx, w), canonical(dy, h));
+                    if key != (0, 0) {
+                        *spatial.entry(key).or_insert(0.0) += e;
+                    }
+                }
+            }
+        }
+        let mut temporal: BTreeMap<i32, f64> = BTreeMap::new();
+        for dz in -rz..=rz {
+            if let Some(e) = weight(dz * dz) {
+                let key = canonical(dz, d);
+                if key != 0 {
+                    *temporal.entry(key).or_insert(0.0) += e;
+                }
+            }
+        }
+        let spatial: Vec<(i32, i32, f64)> = spatial
+            .into_iter()
+            .map(|((dx, dy), e)| (dx, dy, e))
+            .collect();
+        let temporal: Vec<(i32, f64)> = temporal.into_iter().collect();
+        let range = |f: fn(&(i32, i32, f64)) -> i32| {
+            let it = || spatial.iter().map(f);
+            (it().min().unwrap_or(0), it().max().unwrap_or(0))
+        };
+        let total: f64 =
+            spatial.iter().map(|t| t.2).sum::<f64>() + temporal.iter().map(|t| t.1).sum::<f64>();
+        let (dx_range, dy_range) = (range(|t| t.0), range(|t| t.1));
+        let columns = (dx_range.1 - dx_range.0 + 1) as usize;
+        let mut tap_at_offset = vec![u32::MAX; columns * (dy_range.1 - dy_range.0 + 1) as usize];
+        for (k, &(dx, dy, _)) in spatial.iter().enumerate() {
+            let cell = (dy - dy_range.0) as usize * columns + (dx - dx_range.0) as usize;
+            tap_at_offset[cell] = k as u32;
+        }
+        SwapKernel {
+            width: w,
+            height: h,
+            depth: d,
+            dims: config.dims,
+            dx_range,
+            dy_range,
+            tap_at_offset,
+            spatial,
+            temporal,
+            inv_sigma_value_sq: (1.0 / (config.sigma_value * config.sigma_value)) as f32,
+            margin: 1e-11 * total,
+        }
+    }
+
+    /// Same-slice neighbours of a pixel (distinct pixels, itself excluded).
+    pub fn spatial_taps(&self) -> usize {
+        self.spatial.len()
+    }
+
+    /// Same-position neighbours of a pixel in other slices.
+    pub fn temporal_taps(&self) -> usize {
+        self.temporal.len()
+    }
+
+    /// Largest `|dx|` and `|dy|` of a spatial tap, in pixels.
+    pub fn reach(&self) -> (u32, u32) {
+        (
+            self.dx_range
+                .0
+                .unsigned_abs()
+                .max(self.dx_range.1.unsigned_abs()),
+            self.dy_range
+                .0
+                .unsigned_abs()
+                .max(self.dy_range.1.unsigned_abs()),
+        )
+    }
+
+    pub(super) fn slice_pixels(&self) -> usize {
+        self.width as usize * self.height as usize
+    }
+
+    /// The volume's width, height and depth.
+    pub(super) fn size(&self) -> (u32, u32, u32) {
+        (self.width, self.height, self.depth)
+    }
+
+    /// The mask's energy computed from scratch: `½ Σ_p e(p)` over the
+    /// [pixel energies](SwapKernel::pixel_energies), summed per slice in parallel and then in
+    /// slice order (deterministic).
+    ///
+    /// Panics if `values.len()` is not `width · height · depth · dims`.
+    pub fn energy(&self, values: &[f32]) -> f64 {
+        let slice = self.slice_pixels();
+        let per_slice: Vec<f64> = self
+            .pixel_energies(values)
+            .par_chunks(slice)
+            .map(|e| e.iter().sum::<f64>())
+            .collect();
+        0.5 * per_slice.iter().sum::<f64>()
+    }
+
+    /// Every pixel's energy from scratch: `e(p) = Σ_neighbours w · value factor`, index
+    /// `(z · height + y) · width + x`. Each pair's energy appears in both its pixels' energies.
+    ///
+    /// Panics if `values.len()` is not `width · height · depth · dims`.
+    pub fn pixel_energies(&self, values: &[f32]) -> Vec<f64> {
+        assert_eq!(
+            values.len(),
+            self.slice_pixels() * self.depth as usize * self.dims,
+            "value count must match the size"
+        );
+        match self.dims {
+            1 => self.pixel_energies_d::<1>(values),
+            2 => self.pixel_energies_d::<2>(values),
+            3 => self.pixel_energies_d::<3>(values),
+            _ => self.pixel_energies_d::<4>(values),
+        }
+    }
+
+    fn pixel_energies_d<const D: usize>(&self, values: &[f32]) -> Vec<f64> {
+        let (w, h) = (self.width as i64, self.height as i64);
+        let slice = self.slice_pixels();
+        let value = |i: usize| -> [f32; D] { std::array::from_fn(|c| values[i * D + c]) };
+        let steps = self.steps(self.width, self.height);
+        let taps = self.temporal.len();
+        let mut energies = vec![0.0; slice * self.depth as usize];
+        energies
+            .par_chunks_mut(slice)
+            .enumerate()
+            .for_each(|(z, out)| {
+                for y in 0..h {
+                    for x in 0..w {
+                        let p = z * slice + (y * w + x) as usize;
+                        let vp = value(p);
+                        let pair = |n: usize| {
+                            let vn = value(n);
+                            f64::from(value_factor::<D>(
+                                squared_distance(&vp, &vn),
+                                self.inv_sigma_value_sq,
+                            ))
+                        };
+                        let mut sum = 0.0;
+                        for &(dx, dy, wt) in &self.spatial {
+                            let nx = (x + i64::from(dx)).rem_euclid(w);
+                            let ny = (y + i64::from(dy)).rem_euclid(h);
+                            sum += wt * pair(z * slice + (ny * w + nx) as usize);
+                        }
+                        let temporal_steps = &steps.temporal[z * taps..(z + 1) * taps];
+                        for (&(_, wt), &step) in self.temporal.iter().zip(temporal_steps) {
+                            sum += wt * pair((p as isize + step) as usize);
+                        }
+                        out[(y * w + x) as usize] = sum;
+                    }
+                }
+            });
+        energies
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn value_factor_matches_std() {
+        fn check<const D: usize>(inv_sigma_sq: f32) -> f64 {
+            let mut worst: f64 = 0.0;
+            for i in 0..100_000 {
+                // Squared distances over every space's range (unit vectors: up to 4), and tiny.
+                let s = i as f32 * 4e-5;
+                for s in [s, s * 1e-30] {
+                    // The exponent's relative error becomes an absolute one in the logarithm.
+                    let exponent =
+                        f64::from(s).sqrt().powf(D as f64 / 3.0) * f64::from(inv_sigma_sq);
+                    let exact = (-exponent).exp();
+                    let got = f64::from(value_factor::<D>(s, inv_sigma_sq));
+                    worst = worst.max((got - exact).abs() / exact / exponent.max(1.0));
+                }
+            }
+            worst
+        }
+        for inv_sigma_sq in [1.0, 0.01, 20.0] {
+            for worst in [
+                check::<1>(inv_sigma_sq),
+                check::<2>(inv_sigma_sq),
+                check::<3>(inv_sigma_sq),
+                check::<4>(inv_sigma_sq),
+            ] {
+                assert!(
+                    worst < 5e-7,
+                    "worst relative error {worst} at 1/σ² {inv_sigma_sq}"
+                );
+            }
+        }
+        assert_eq!(value_factor::<2>(0.0, 1.0), 1.0);
+        assert_eq!(distance_power::<1>(0.0), 0.0);
+        assert_eq!(distance_power::<4>(0.0), 0.0);
+    }
+}

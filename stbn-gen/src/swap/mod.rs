@@ -1,0 +1,438 @@
+//! The swap optimiser of vector masks (paper §4.2, after Georgiev and Fajardo): pixels of one
+//! slice exchange values whenever that lowers the mask's energy.
+//!
+//! # Energy
+//!
+//! Two pixels `p`, `q` interact when they share a slice (2D toroidal offset `(dx, dy)`) or a
+//! position `(x, y)` (toroidal offset `dz` in frames). Their energy is
+//!
+//! ```text
+//! E(p, q) = w(p − q) · exp(−‖Vp − Vq‖^(d/3) / σs²),   w(o) = exp(−‖o‖² / σi²)
+//! ```
+//!
+//! with `d` the number of value components ([`crate::SampleSpace::dims`]) and `‖·‖` the
+//! Euclidean norm, also for unit vectors and directions (the chord length `2 sin(angle/2)`, not the
+//! angle). The mask's energy is the sum over unordered interacting pairs. Offsets whose weight
+//! `exp(−‖o‖²/σi²)` is below `kernel_tolerance` are dropped (the value factor is at most 1, so
+//! the pair energy is below it too); every toroidal image of an offset is summed into one weight
+//! (so volumes smaller than the footprint stay exact: in a 2-pixel-wide slice the neighbours at
+//! `dx = ±1` are the same pixel, with twice the weight), and offsets that wrap onto the pixel
+//! itself are left out (a pixel's energy with itself does not change under swaps).
+//!
+//! # Exact local deltas
+//!
+//! Swapping `Vp` and `Vq` (same slice) changes only the pairs that contain `p` or `q`. Each pixel
+//! keeps its energy `e(p)` (the sum of its pairs' energies; the mask's energy is `½ Σ e(p)`), so
+//! a proposal evaluates only the pairs after the swap:
+//! `ΔE = Σ_{n ∈ N(p)∖q} w f(‖Vq − Vn‖²) − (e(p) − w_pq f_pq)` plus the same for `q`, the pair
+//! `(p, q)` excluded (its energy is symmetric, so the swap leaves it unchanged). A swap is kept
+//! only when the delta is below `−margin`, where `margin = 10⁻¹¹ · Σ w` is far above the
+//! rounding error of the `f64` sums: every accepted swap lowers the energy. An accepted swap then
+//! updates `e` of both pixels and of every neighbour.
+//!
+//! The value factor `f` is, by definition, what one function computes in single precision from
+//! the `f32` values (`value_factor`: a Taylor `exp` and Newton cube roots, within 5·10⁻⁷ of the
+//! exact factor); weights and sums are `f64`. Every energy, cached or recomputed, goes through
+//! it, so "lowers the energy" is exact for the energy the optimiser reports. It uses basic IEEE
+//! operations only (no platform `libm`, so the same bits everywhere) and no branches, so the
+//! loops over a footprint vectorise: 16 lanes per instruction on x86-64 CPUs with AVX-512, 8 with
+//! AVX2 (detected at run time; the same operations in the same order, so the same bits as the
+//! portable SSE2 build, tested).
+//!
+//! # Schedule
+//!
+//! A *pass* proposes, in every slice, one swap per pixel: the slice is cut into rectangular tiles
+//! (about [`TILE_TARGET`] pixels wide, never less than twice the kernel's reach, at a seeded
+//! random offset per pass), and the pixels of a tile propose in a seeded random order. A pixel
+//! draws a few other pixels of its tile uniformly (with replacement; one in the first passes, up
+//! to [`PARTNER_CANDIDATES`] later, see [`partner_candidates`]) and proposes a swap with the one
+//! whose value is nearest its own. Tiles are coloured in
+//! a 2 × 2 pattern; the tiles of one colour run in parallel. Two tiles of one colour are separated
+//! by a whole tile, at least twice the reach wide, and a tile covers its columns in every slice,
+//! so no tile reads a value another one writes, and the neighbour energies two tiles update are
+//! distinct: the result is the same for any number of threads. Each tile draws from its own
+//! ChaCha8 stream keyed by (seed, pass, tile), and the energy deltas are added in tile order.
+//!
+//! Why the nearest value of a few candidates: swaps that lower the energy are rare and mostly
+//! between similar values. Counted over passes 64–128 of uniform proposals (64×64×32 Vec2), the
+//! 4.7% of proposals whose values lay within 0.15 of each other made 77% of the accepted swaps;
+//! for UnitVec3 the 5.5% within a chord of 0.5 made about 75%. Proposing the nearest of 16
+//! candidates (in tiles of 16 rather than 8 pixels, so there are close values to find; the count
+//! ramps up from 1 over the first 30 passes, see [`partner_candidates`]) did in 128 passes (37 s
+//! at 128×128×64) what uniform partners did not reach in 1024 (267 s): Vec2 filtered error 0.00835
+//! against 0.00845, component 0 spatial low band 0.0152 against 0.0194, energy within 0.02%
+//! (BENCHMARKS.md, "Vector masks"). Tried and dropped: a window of neighbours in the Hilbert order
+//! of the values (converged faster at first, stalled 0.2% higher), 32 or 64 candidates (no better
+//! per pass, slower), partners nearer in space, proposals from the highest-energy pixels, a
+//! screen on the nearest taps, and long-range partners.
+//!
+//! Session 6 looked for a move that shortens the tail, the part a much longer run still gains
+//! (BENCHMARKS.md, "Vector masks"). All of these were run on 64×64×32 with seed 1 and throw-away
+//! code. None beat the default's energy, or its filtered error, for the same time:
+//! - **Partners picked by a linearised delta.** The delta was predicted as
+//!   `(∇_a E − ∇_b E)·(vb − va)`, using the analytic gradient of every pixel's energy. The
+//!   prediction correlates with the exact delta (r = 0.82). But it picked improving swaps no
+//!   more often than the nearest value did. After 128 passes, out of the same 16 candidates:
+//!   1.17% of proposals improved against 1.14%. Even the best of the 16 by exact delta improved
+//!   only 1.26%. After 1024 passes the three were 0.13%, 0.13% and 0.14%. Improving swaps are
+//!   scarce, not hidden among the candidates.
+//! - **The nearest value in the whole tile.** After 128 passes, 17% of pixels have an improving
+//!   partner somewhere in their 16 × 16 tile. 49% of those partners hold the value nearest the
+//!   pixel's own, and 86% are among its 4 nearest. So, from pass 40 on, each proposal went to
+//!   the nearest value of the tile, found by scanning it. At 128 passes this took 12.6 s
+//!   against 5.5 s. Energy per pixel was 3.275579 against 3.275569 (Vec2) and 1.599803 against
+//!   1.600739 (UnitVec3). Filtered error was 0.00839 against 0.00847 (Vec2) and 0.00940 against
+//!   0.00946 (UnitVec3). The default's 256 passes took less time, 9.4 s, and did better still:
+//!   3.273994 and 0.00837 (Vec2), 1.597559 and 0.00935 (UnitVec3).
+//! - **A coarse phase first.** 16 or 32 passes at σi 2.7 or 3.5, which weights lower
+//!   frequencies, then σi 1.9 for the rest of 128 passes. Filtered error stayed at 0.00846–0.00848
+//!   (Vec2) and 0.00946–0.00950 (UnitVec3), the default's within noise. The energy per pixel
+//!   ended higher: 3.27619–3.27645 against 3.27557.
+//!
+//! # Assignment passes
+//!
+//! [`crate::VectorSpec::assignment_passes`] of them (12 by default since GENERATOR_VERSION 4) run
+//! after the swap passes. A move re-assigns the
+//! values of up to [`ASSIGNMENT_SET`] pixels of one slice at once. The pixels hold similar
+//! values and do not interact with each other (no offset between two of them is a tap), so
+//! permuting their values changes the energy by `Σ_i c(p_i, v_π(i)) − Σ_i c(p_i, v_i)`, where
+//! `c(p, v) = Σ_{n ∈ N(p)} w f(‖v − Vn‖²)`: the pixels' neighbours stay fixed, so the terms
+//! separate, and the best of all k! permutations is a linear assignment problem, solved exactly
+//! by the Hungarian method in O(k³) (`min_cost_assignment`). A pair swap is the case k = 2.
+//! The best permutation is kept if it lowers the energy by more than `k` margins; the pixel
+//! energies are updated as for a swap. Tiles are [`ASSIGNMENT_TILE_TARGET`] pixels wide and
+//! coloured as for swaps, so the passes are deterministic for any thread count (tested).
+//!
+//! Why: after 128 swap passes (the default then), improving swaps are scarce (above), but
+//! improving permutations of similar values are not. A session-6 probe (64×64×32, seed 1, f64 code,
+//! cost counted in `c(p, v)` evaluations, two per swap proposal) reached the energy of the
+//! default's next 128 swap passes for the cost of 32–40. In 16-pixel tiles the sets found few
+//! similar values (16 passes: Vec2 energy per pixel 3.274653); in 32-pixel tiles, 3.272816,
+//! below the 3.273994 of 128 more swap passes (BENCHMARKS.md, "Vector masks", has the
+//! 128×128×64 figures). Session 7 measured how to split a budget between the two moves: 64 swap
+//! passes first and then assignment passes did best for the time (BENCHMARKS.md, "Assignment
+//! passes").
+
+mod assignment;
+mod energy;
+mod pair;
+mod region;
+mod simd;
+
+pub use assignment::{ASSIGNMENT_SET, ASSIGNMENT_TILE_TARGET, MAX_ASSIGNMENT};
+pub use energy::SwapKernel;
+
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
+
+use crate::rng;
+use crate::schedule::{self, Layout, PassKey, SpanStart, Tile, TileOptimizer};
+use crate::trace::TracePoint;
+use pair::Scratch;
+use region::Region;
+
+/// What the swap optimiser needs of a vector mask's spec: the volume's size, the value
+/// dimension, the energy's parameters and the seed. A `&`[`crate::VectorSpec`] converts into it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SwapConfig {
+    /// Pixels per row.
+    pub width: u32,
+    /// Rows per slice.
+    pub height: u32,
+    /// Slices.
+    pub depth: u32,
+    /// Components per value, `1..=4`.
+    pub dims: usize,
+    /// Seed of the tile grids and the proposals.
+    pub seed: u64,
+    /// σi in pixels (and frames), finite, `> 0`.
+    pub sigma_image: f64,
+    /// σs in value units, finite, `> 0`.
+    pub sigma_value: f64,
+    /// Pair weights below this are dropped, in `(0, 1)`.
+    pub kernel_tolerance: f64,
+}
+
+/// Preferred tile side in pixels (tiles are never narrower than twice the kernel's reach): 16
+/// gives [`PARTNER_CANDIDATES`] 255 pixels to choose from and still 4 tiles per colour at
+/// 64 × 64, enough for the two cores here.
+pub const TILE_TARGET: u32 = 16;
+
+/// Candidates a proposing pixel draws from its tile once the optimiser is under way; it proposes
+/// the one whose value is nearest its own ([module docs](self)). Pass `p` draws
+/// `min(1 + p / 2, PARTNER_CANDIDATES)` ([`partner_candidates`]): a uniform partner first.
+pub const PARTNER_CANDIDATES: u32 = 16;
+
+/// The candidates pass `pass` draws per proposal: one more every two passes, up to `cap`.
+///
+/// Early passes make the large moves a poor start needs, later ones the fine ones. From white
+/// noise (32×32×16 Vec1, 16 passes) 16 candidates from the first pass left the spatial low band
+/// at 0.397 against 0.071 for uniform partners; the ramp reached 0.069. From the default start it
+/// also ends lower than 16 from the first pass (64×64×32, 128 passes: Vec2 3.27557 against
+/// 3.27619, UnitVec3 1.60074 against 1.60173).
+pub fn partner_candidates(pass: u64, cap: u32) -> u32 {
+    (1 + pass / 2).min(u64::from(cap.max(1))) as u32
+}
+
+/// What every tile of one pass needs besides its coordinates and random stream.
+pub(crate) struct PassPlan {
+    /// Share of each tile's pixels that propose, in `[0, 1]`.
+    fraction: f64,
+    /// Candidates per proposal in this pass ([`partner_candidates`]).
+    partner_candidates: u32,
+    /// 0 for a swap pass; `k ≥ 2` for an assignment pass over sets of `k` pixels.
+    assignment: u32,
+}
+
+/// Totals of one tile's work.
+#[derive(Clone, Copy, Default)]
+struct TileResult {
+    attempted: u64,
+    accepted: u64,
+    delta: f64,
+}
+
+/// One tile's private copy of its region after its moves, and its totals.
+pub(crate) struct TileOutcome {
+    region: Region,
+    result: TileResult,
+}
+
+/// The optimiser's state: the values and pixel energies, the running energy and counters.
+pub struct SwapOptimizer {
+    kernel: SwapKernel,
+    /// The whole volume: the values and each pixel's energy `e(p)`
+    /// ([`SwapKernel::pixel_energies`]), kept up to date by every accepted swap.
+    state: Region,
+    seed: u64,
+    passes: u64,
+    energy: f64,
+    attempted: u64,
+    accepted: u64,
+    tile_target: u32,
+    partner_candidates: u32,
+}
+
+impl SwapOptimizer {
+    /// An optimiser over `values` (`width · height · depth · dims` components, index
+    /// `pixel · dims + c`) with the energy of `config`, which must come from a
+    /// [validated](crate::VectorSpec::validate) spec (a `&VectorSpec` converts into one).
+    ///
+    /// Panics if the value count does not match the size.
+    pub fn new(config: impl Into<SwapConfig>, values: Vec<f32>) -> SwapOptimizer {
+        let config = config.into();
+        let kernel = SwapKernel::new(config);
+        let pixel_energy = kernel.pixel_energies(&values);
+        let slice = kernel.slice_pixels();
+        let per_slice: Vec<f64> = pixel_energy
+            .par_chunks(slice)
+            .map(|e| e.iter().sum::<f64>())
+            .collect();
+        let energy = 0.5 * per_slice.iter().sum::<f64>();
+        SwapOptimizer {
+            state: Region {
+                steps: kernel.steps(kernel.width, kernel.height),
+                values,
+                energy: pixel_energy,
+            },
+            kernel,
+            seed: config.seed,
+            passes: 0,
+            energy,
+            attempted: 0,
+            accepted: 0,
+            tile_target: TILE_TARGET,
+            partner_candidates: PARTNER_CANDIDATES,
+        }
+    }
+
+    /// The same optimiser with another preferred tile side (partners are drawn within a tile,
+    /// so this also sets how far a swap can move a value in one pass). For experiments; the
+    /// default is [`TILE_TARGET`].
+    pub fn with_tile_target(mut self, pixels: u32) -> SwapOptimizer {
+        self.tile_target = pixels.max(1);
+        self
+    }
+
+    /// The same optimiser drawing at most `count` partner candidates per proposal (1: a uniform
+    /// partner). For experiments; the default is [`PARTNER_CANDIDATES`].
+    pub fn with_partner_candidates(mut self, count: u32) -> SwapOptimizer {
+        self.partner_candidates = count.max(1);
+        self
+    }
+
+    /// The energy kernel.
+    pub fn kernel(&self) -> &SwapKernel {
+        &self.kernel
+    }
+
+    /// The running energy: the initial energy plus every accepted swap's delta.
+    pub fn energy(&self) -> f64 {
+        self.energy
+    }
+
+    /// The energy of the current values computed from scratch ([`SwapKernel::energy`]).
+    pub fn recompute_energy(&self) -> f64 {
+        self.kernel.energy(&self.state.values)
+    }
+
+    /// The largest difference between a cached pixel energy and its value computed from
+    /// scratch: the rounding the incremental updates have accumulated.
+    pub fn pixel_energy_drift(&self) -> f64 {
+        let exact = self.kernel.pixel_energies(&self.state.values);
+        exact
+            .iter()
+            .zip(&self.state.energy)
+            .map(|(&e, &cached)| (e - cached).abs())
+            .fold(0.0, f64::max)
+    }
+
+    /// Swaps proposed so far.
+    pub fn swaps_attempted(&self) -> u64 {
+        self.attempted
+    }
+
+    /// Swaps kept so far.
+    pub fn swaps_accepted(&self) -> u64 {
+        self.accepted
+    }
+
+    /// A copy of the current values.
+    pub fn values(&self) -> Vec<f32> {
+        self.state.values.clone()
+    }
+
+    /// The current values.
+    pub fn into_values(self) -> Vec<f32> {
+        self.state.values
+    }
+
+    fn check_pixel(&self, (x, y): (u32, u32), z: u32) {
+        assert!(
+            x < self.kernel.width && y < self.kernel.height && z < self.kernel.depth,
+            "pixel ({x}, {y}, {z}) is outside the volume"
+        );
+    }
+
+    /// The exact energy change swapping the values of pixels `a` and `b` (`(x, y)`) of slice
+    /// `z` would make, computed locally. Panics if a pixel is outside the volume.
+    pub fn swap_delta(&self, z: u32, a: (u32, u32), b: (u32, u32)) -> f64 {
+        self.check_pixel(a, z);
+        self.check_pixel(b, z);
+        let (k, state) = (&self.kernel, &self.state);
+        let mut scratch = Scratch::new(k);
+        match k.dims {
+            1 => k.delta::<1>(state, z, a, b, &mut scratch).0,
+            2 => k.delta::<2>(state, z, a, b, &mut scratch).0,
+            3 => k.delta::<3>(state, z, a, b, &mut scratch).0,
+            _ => k.delta::<4>(state, z, a, b, &mut scratch).0,
+        }
+    }
+
+    /// Swaps the values of pixels `a` and `b` of slice `z` if that lowers the energy (by more than
+    /// the rounding margin of the [module docs](self)), counting one attempt. Returns the
+    /// accepted swap's delta (negative), `None` if the values stay. Panics if a pixel is outside
+    /// the volume.
+    pub fn try_swap(&mut self, z: u32, a: (u32, u32), b: (u32, u32)) -> Option<f64> {
+        self.check_pixel(a, z);
+        self.check_pixel(b, z);
+        let result = {
+            let (k, state) = (&self.kernel, &mut self.state);
+            let mut scratch = Scratch::new(k);
+            match k.dims {
+                1 => k.attempt::<1>(state, z, a, b, &mut scratch),
+                2 => k.attempt::<2>(state, z, a, b, &mut scratch),
+                3 => k.attempt::<3>(state, z, a, b, &mut scratch),
+                _ => k.attempt::<4>(state, z, a, b, &mut scratch),
+            }
+        };
+        self.attempted += 1;
+        if let Some(delta) = result {
+            self.accepted += 1;
+            self.energy += delta;
+        }
+        result
+    }
+
+    /// One pass ([module docs](self)): every pixel of every slice proposes one swap, or, with
+    /// `fraction < 1`, the first `round(fraction · n)` pixels of each tile's random order do.
+    /// Calls `after_colour` after each of the four colour phases. Returns the totals after the
+    /// pass.
+    pub fn run_pass(&mut self, fraction: f64, after_colour: &mut dyn FnMut(&Self)) -> TracePoint {
+        self.run_pass_with(fraction, 0, self.tile_target, after_colour)
+    }
+
+    /// An assignment pass ([module docs](self)): in tiles about [`ASSIGNMENT_TILE_TARGET`]
+    /// pixels wide, coloured like a swap pass's, each slice makes `⌈n / k⌉` moves (`n` the
+    /// tile's pixels; `k` clamped to `2..=`[`MAX_ASSIGNMENT`]). A move takes a random anchor
+    /// pixel of the tile, then, nearest value first among the `ASSIGNMENT_SHORTLIST` (256)
+    /// values nearest the anchor's (ties by position in the tile), up to `k` pixels that
+    /// interact with no other pixel of the set. Their energies then separate,
+    /// `c(p, v) = Σ_n w f(‖v − Vn‖²)` summed over the set, and the permutation of their values
+    /// with the least sum (`min_cost_assignment`) is kept if it lowers the energy by more than
+    /// `k` margins.
+    /// Counts each move as one attempted (and maybe accepted) swap. Calls `after_colour` after
+    /// each colour phase.
+    pub fn run_assignment_pass(
+        &mut self,
+        k: u32,
+        after_colour: &mut dyn FnMut(&Self),
+    ) -> TracePoint {
+        let k = k.clamp(2, MAX_ASSIGNMENT);
+        self.run_pass_with(1.0, k, ASSIGNMENT_TILE_TARGET, after_colour)
+    }
+
+    /// One pass in tiles about `tile_target` pixels wide: swaps (`assignment` 0) or an
+    /// assignment pass over sets of up to `assignment` pixels.
+    fn run_pass_with(
+        &mut self,
+        fraction: f64,
+        assignment: u32,
+        tile_target: u32,
+        after_colour: &mut dyn FnMut(&Self),
+    ) -> TracePoint {
+        let pass = self.passes;
+        self.passes += 1;
+        let layout = Layout {
+            width: self.kernel.width,
+            height: self.kernel.height,
+            reach: self.kernel.reach(),
+            target: tile_target,
+            span_start: SpanStart::PassOffset,
+        };
+        let key = PassKey {
+            seed: self.seed,
+            streams: rng::VECTOR,
+            pass,
+        };
+        let plan = PassPlan {
+            fraction: fraction.clamp(0.0, 1.0),
+            partner_candidates: partner_candidates(pass, self.partner_candidates),
+            assignment,
+        };
+        schedule::run_pass(self, &layout, key, &plan, after_colour);
+        TracePoint {
+            swaps_attempted: self.attempted,
+            swaps_accepted: self.accepted,
+            energy: self.energy,
+        }
+    }
+}
+
+impl TileOptimizer for SwapOptimizer {
+    type Plan = PassPlan;
+    type Outcome = TileOutcome;
+
+    fn run_tile(&self, tile: &Tile, rng: ChaCha8Rng, plan: &PassPlan) -> TileOutcome {
+        let mut region = self.state.tile_copy(&self.kernel, tile);
+        let result = self.kernel.run_tile_fastest(&mut region, tile, rng, plan);
+        TileOutcome { region, result }
+    }
+
+    fn write_back(&mut self, tile: &Tile, outcome: TileOutcome) {
+        self.state.write_back(&self.kernel, tile, &outcome.region);
+        self.attempted += outcome.result.attempted;
+        self.accepted += outcome.result.accepted;
+        self.energy += outcome.result.delta;
+    }
+}
