@@ -107,8 +107,9 @@ pub(crate) enum SpanStart {
 /// How an optimiser cuts its frames into tiles.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Layout {
-    /// Pixels per row and rows per frame.
+    /// Pixels per row.
     pub width: u32,
+    /// Rows per frame.
     pub height: u32,
     /// How far, in pixels along x and y, a move at one pixel reads or writes around it.
     pub reach: (u32, u32),
@@ -188,11 +189,17 @@ impl Layout {
 
 /// One tile along one axis.
 struct Span {
+    /// The tile's first pixel.
     start: u32,
+    /// The tile's length in pixels.
     len: u32,
+    /// The region's first pixel.
     region_start: u32,
+    /// The region's length in pixels.
     region_len: u32,
+    /// The tile's first pixel within its region.
     inset: u32,
+    /// Whether the region spans the axis (and offsets wrap around it).
     wraps: bool,
 }
 
@@ -201,24 +208,29 @@ struct Span {
 /// frame), the tile widened by the reach on each side, or the whole axis where one tile spans it.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Tile {
-    /// First column and row of the tile.
+    /// First column of the tile.
     pub x0: u32,
+    /// First row of the tile.
     pub y0: u32,
-    /// The tile's size in pixels.
+    /// The tile's width in pixels.
     pub w: u32,
+    /// The tile's height in pixels.
     pub h: u32,
-    /// First column and row of the region.
+    /// First column of the region.
     pub rx0: u32,
+    /// First row of the region.
     pub ry0: u32,
-    /// The region's size in pixels.
+    /// The region's width in pixels.
     pub rw: u32,
+    /// The region's height in pixels.
     pub rh: u32,
-    /// The tile's first column and row within its region: the reach, or 0 where the region
-    /// spans the axis.
+    /// The tile's first column within its region: the reach, or 0 where the region spans x.
     pub inset_x: u32,
+    /// The tile's first row within its region: the reach, or 0 where the region spans y.
     pub inset_y: u32,
-    /// The region spans the whole axis (one tile along it): offsets wrap around it.
+    /// The region spans x (one tile along it): offsets wrap around it.
     pub wrap_x: bool,
+    /// The region spans y: offsets wrap around it.
     pub wrap_y: bool,
     /// Colour, `0..4`: tiles of one colour run in parallel.
     pub colour: u8,

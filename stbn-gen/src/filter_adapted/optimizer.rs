@@ -39,15 +39,15 @@
 //!
 //! # Schedule
 //!
-//! A pass proposes, in every frame, one swap per pixel: the frame is cut into tiles (about
-//! 16 pixels wide, never narrower than twice the kernel's spatial reach, at a seeded
-//! random offset per pass), each pixel of a tile proposes a swap with a uniformly drawn other
-//! pixel of its tile, in a seeded random order. A tile covers its columns in every frame. Tiles
-//! are coloured 2 × 2; the tiles of one colour run in parallel, each on private copies of the
-//! values it owns and of what it reads or updates around them (its columns widened by the
-//! reach; copies of same-coloured tiles never overlap, since the tile between them is at least
-//! twice the reach wide), written back after the colour. Each tile draws from its own ChaCha8
-//! stream keyed by (seed, pass, tile). Nothing depends on the number of threads.
+//! A pass proposes, in every frame, one swap per pixel. Frames are cut into tiles about
+//! `Optimizer::TILE_TARGET` pixels wide (never narrower than twice the kernel's spatial reach)
+//! at a seeded random offset per pass, and the tiles run on the crate's tile schedule, as the
+//! vector swap optimiser's do: coloured 2 × 2, the tiles of one colour in parallel, each on
+//! private copies of its value indices and of the energy's state over its region (the tile
+//! widened by the reach, every frame: levels for the distance energy, `φ` for the product),
+//! written back after the colour, each drawing from its own ChaCha8 stream keyed by (seed, pass,
+//! tile). Nothing depends on the number of threads (tested). In a tile, each pixel proposes a
+//! swap with a uniformly drawn other pixel of the tile, in a seeded random order.
 
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
@@ -234,11 +234,15 @@ fn splat(
 /// A tile's private copies: its value indices (`(z · h + y) · w + x`, tile-local) and the region
 /// state of the energy.
 struct Work {
+    /// Per tile pixel, the index of its value in its frame's values.
     perm: Vec<u32>,
+    /// The energy's state over the tile's region.
     region: Region,
 }
 
+/// The energy's state over a tile's region.
 enum Region {
+    /// The levels ([`Columns`]).
     Distance(Columns),
     /// `φ` over the region ([`splat`]'s layout).
     Product(Vec<f64>),
@@ -246,16 +250,22 @@ enum Region {
 
 /// One tile's copies after its swaps, and its totals.
 pub(crate) struct TileOutcome {
+    /// The tile's copies after its swaps.
     work: Work,
+    /// The tile's totals.
     result: TileResult,
 }
 
 /// Totals of one tile's work.
 #[derive(Default)]
 struct TileResult {
+    /// Swaps proposed.
     attempted: u64,
+    /// Proposals evaluated in full (past the screen).
     screened: u64,
+    /// Swaps kept.
     accepted: u64,
+    /// The kept swaps' exact energy change.
     delta: i128,
 }
 

@@ -117,7 +117,7 @@ impl SwapKernel {
         lane_sum(&scratch.term[..taps])
     }
 
-    /// One tile of an assignment pass ([`SwapOptimizer::run_assignment_pass`]).
+    /// One tile of an assignment pass ([`super::SwapOptimizer::run_assignment_pass`]).
     #[inline(always)]
     pub(super) fn run_tile_assignment<const D: usize>(
         &self,

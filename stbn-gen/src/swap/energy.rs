@@ -90,16 +90,21 @@ pub(super) fn value_factors<const D: usize>(
 /// parameters.
 #[derive(Clone, Debug)]
 pub struct SwapKernel {
+    /// Pixels per row of the volume.
     pub(super) width: u32,
+    /// Rows per slice.
     pub(super) height: u32,
+    /// Slices.
     pub(super) depth: u32,
+    /// Components per value, `1..=4`.
     pub(super) dims: usize,
     /// Same-slice neighbours: canonical `(dx, dy)` (never `(0, 0)`), weight.
     pub(super) spatial: Vec<(i32, i32, f64)>,
     /// Same-position neighbours: canonical `dz` (never 0), weight.
     pub(super) temporal: Vec<(i32, f64)>,
-    /// Extremes of the spatial taps' `dx` and `dy`.
+    /// Extremes of the spatial taps' `dx`.
     pub(super) dx_range: (i32, i32),
+    /// Extremes of the spatial taps' `dy`.
     pub(super) dy_range: (i32, i32),
     /// The spatial tap of each offset in those ranges (row `dy`, column `dx`), `u32::MAX` where
     /// there is none.
@@ -211,6 +216,7 @@ impl SwapKernel {
         )
     }
 
+    /// Pixels per slice.
     pub(super) fn slice_pixels(&self) -> usize {
         self.width as usize * self.height as usize
     }
@@ -253,6 +259,7 @@ impl SwapKernel {
         }
     }
 
+    /// [`SwapKernel::pixel_energies`] for `D` value components.
     fn pixel_energies_d<const D: usize>(&self, values: &[f32]) -> Vec<f64> {
         let (w, h) = (self.width as i64, self.height as i64);
         let slice = self.slice_pixels();

@@ -41,77 +41,49 @@
 //!
 //! # Schedule
 //!
-//! A *pass* proposes, in every slice, one swap per pixel: the slice is cut into rectangular tiles
-//! (about [`TILE_TARGET`] pixels wide, never less than twice the kernel's reach, at a seeded
-//! random offset per pass), and the pixels of a tile propose in a seeded random order. A pixel
-//! draws a few other pixels of its tile uniformly (with replacement; one in the first passes, up
-//! to [`PARTNER_CANDIDATES`] later, see [`partner_candidates`]) and proposes a swap with the one
-//! whose value is nearest its own. Tiles are coloured in
-//! a 2 × 2 pattern; the tiles of one colour run in parallel. Two tiles of one colour are separated
-//! by a whole tile, at least twice the reach wide, and a tile covers its columns in every slice,
-//! so no tile reads a value another one writes, and the neighbour energies two tiles update are
-//! distinct: the result is the same for any number of threads. Each tile draws from its own
-//! ChaCha8 stream keyed by (seed, pass, tile), and the energy deltas are added in tile order.
+//! A *pass* proposes, in every slice, one swap per pixel. Slices are cut into tiles about
+//! [`TILE_TARGET`] pixels wide (never narrower than twice the kernel's reach) at a seeded random
+//! offset per pass, and the tiles run on the crate's tile schedule: coloured 2 × 2, the tiles of
+//! one colour in parallel, each on a private copy of its region (the tile widened by the reach,
+//! every slice) written back after the colour, each drawing from its own ChaCha8 stream keyed by
+//! (seed, pass, tile). The result is the same for any number of threads (tested). In a tile,
+//! pixels propose in a seeded random order; a pixel draws a few other pixels of its tile
+//! uniformly (with replacement; one in the first passes, up to [`PARTNER_CANDIDATES`] later, see
+//! [`partner_candidates`]) and proposes a swap with the one whose value is nearest its own.
 //!
 //! Why the nearest value of a few candidates: swaps that lower the energy are rare and mostly
-//! between similar values. Counted over passes 64–128 of uniform proposals (64×64×32 Vec2), the
-//! 4.7% of proposals whose values lay within 0.15 of each other made 77% of the accepted swaps;
-//! for UnitVec3 the 5.5% within a chord of 0.5 made about 75%. Proposing the nearest of 16
-//! candidates (in tiles of 16 rather than 8 pixels, so there are close values to find; the count
-//! ramps up from 1 over the first 30 passes, see [`partner_candidates`]) did in 128 passes (37 s
-//! at 128×128×64) what uniform partners did not reach in 1024 (267 s): Vec2 filtered error 0.00835
-//! against 0.00845, component 0 spatial low band 0.0152 against 0.0194, energy within 0.02%
-//! (BENCHMARKS.md, "Vector masks"). Tried and dropped: a window of neighbours in the Hilbert order
-//! of the values (converged faster at first, stalled 0.2% higher), 32 or 64 candidates (no better
-//! per pass, slower), partners nearer in space, proposals from the highest-energy pixels, a
-//! screen on the nearest taps, and long-range partners.
-//!
-//! Session 6 looked for a move that shortens the tail, the part a much longer run still gains
-//! (BENCHMARKS.md, "Vector masks"). All of these were run on 64×64×32 with seed 1 and throw-away
-//! code. None beat the default's energy, or its filtered error, for the same time:
-//! - **Partners picked by a linearised delta.** The delta was predicted as
-//!   `(∇_a E − ∇_b E)·(vb − va)`, using the analytic gradient of every pixel's energy. The
-//!   prediction correlates with the exact delta (r = 0.82). But it picked improving swaps no
-//!   more often than the nearest value did. After 128 passes, out of the same 16 candidates:
-//!   1.17% of proposals improved against 1.14%. Even the best of the 16 by exact delta improved
-//!   only 1.26%. After 1024 passes the three were 0.13%, 0.13% and 0.14%. Improving swaps are
-//!   scarce, not hidden among the candidates.
-//! - **The nearest value in the whole tile.** After 128 passes, 17% of pixels have an improving
-//!   partner somewhere in their 16 × 16 tile. 49% of those partners hold the value nearest the
-//!   pixel's own, and 86% are among its 4 nearest. So, from pass 40 on, each proposal went to
-//!   the nearest value of the tile, found by scanning it. At 128 passes this took 12.6 s
-//!   against 5.5 s. Energy per pixel was 3.275579 against 3.275569 (Vec2) and 1.599803 against
-//!   1.600739 (UnitVec3). Filtered error was 0.00839 against 0.00847 (Vec2) and 0.00940 against
-//!   0.00946 (UnitVec3). The default's 256 passes took less time, 9.4 s, and did better still:
-//!   3.273994 and 0.00837 (Vec2), 1.597559 and 0.00935 (UnitVec3).
-//! - **A coarse phase first.** 16 or 32 passes at σi 2.7 or 3.5, which weights lower
-//!   frequencies, then σi 1.9 for the rest of 128 passes. Filtered error stayed at 0.00846–0.00848
-//!   (Vec2) and 0.00946–0.00950 (UnitVec3), the default's within noise. The energy per pixel
-//!   ended higher: 3.27619–3.27645 against 3.27557.
+//! between similar values (among uniform proposals late in a run, the 5% between close values make
+//! about three quarters of the accepted swaps), so proposals go to the nearest value of a few
+//! candidates, in tiles wide enough to hold close values. In 128 passes that reaches a lower
+//! filtered error than uniform partners reach in 1024. BENCHMARKS.md ("Vector masks") has the
+//! figures and the alternatives measured against it.
 //!
 //! # Assignment passes
 //!
-//! [`crate::VectorSpec::assignment_passes`] of them (12 by default since GENERATOR_VERSION 4) run
-//! after the swap passes. A move re-assigns the
-//! values of up to [`ASSIGNMENT_SET`] pixels of one slice at once. The pixels hold similar
-//! values and do not interact with each other (no offset between two of them is a tap), so
-//! permuting their values changes the energy by `Σ_i c(p_i, v_π(i)) − Σ_i c(p_i, v_i)`, where
-//! `c(p, v) = Σ_{n ∈ N(p)} w f(‖v − Vn‖²)`: the pixels' neighbours stay fixed, so the terms
-//! separate, and the best of all k! permutations is a linear assignment problem, solved exactly
-//! by the Hungarian method in O(k³) (`min_cost_assignment`). A pair swap is the case k = 2.
-//! The best permutation is kept if it lowers the energy by more than `k` margins; the pixel
-//! energies are updated as for a swap. Tiles are [`ASSIGNMENT_TILE_TARGET`] pixels wide and
-//! coloured as for swaps, so the passes are deterministic for any thread count (tested).
+//! [`crate::VectorSpec::assignment_passes`] of them run after the swap passes. A move
+//! re-assigns the values of up to [`ASSIGNMENT_SET`] pixels of one slice at once. The pixels
+//! hold similar values and do not interact with each other (no offset between two of them is a
+//! tap), so permuting their values changes the energy by
+//! `Σ_i c(p_i, v_π(i)) − Σ_i c(p_i, v_i)`, where `c(p, v) = Σ_{n ∈ N(p)} w f(‖v − Vn‖²)`: the
+//! pixels' neighbours stay fixed, so the terms separate, and the best of all k! permutations is a
+//! linear assignment problem, solved exactly by the Hungarian method in O(k³). A pair swap is the
+//! case k = 2. The best permutation is kept if it lowers the energy by more than `k` margins; the
+//! pixel energies are updated as for a swap. Tiles are [`ASSIGNMENT_TILE_TARGET`] pixels wide and
+//! run on the same schedule, so the passes are deterministic for any thread count (tested).
 //!
-//! Why: after 128 swap passes (the default then), improving swaps are scarce (above), but
-//! improving permutations of similar values are not. A session-6 probe (64×64×32, seed 1, f64 code,
-//! cost counted in `c(p, v)` evaluations, two per swap proposal) reached the energy of the
-//! default's next 128 swap passes for the cost of 32–40. In 16-pixel tiles the sets found few
-//! similar values (16 passes: Vec2 energy per pixel 3.274653); in 32-pixel tiles, 3.272816,
-//! below the 3.273994 of 128 more swap passes (BENCHMARKS.md, "Vector masks", has the
-//! 128×128×64 figures). Session 7 measured how to split a budget between the two moves: 64 swap
-//! passes first and then assignment passes did best for the time (BENCHMARKS.md, "Assignment
-//! passes").
+//! Why: once the swap passes have run, improving swaps are scarce, but improving permutations of
+//! similar values are not, and an assignment pass lowers the energy and the filtered error more
+//! than the same time spent on swaps. BENCHMARKS.md ("Vector masks", "Assignment passes") has
+//! the figures and the split of the default budget between the two moves.
+//!
+//! # Modules
+//!
+//! - `energy`: the pair weights ([`SwapKernel`]), the value factor, energies from scratch.
+//! - `region`: the blocks of pixels a pass works on (the volume, or a tile's copy of its
+//!   region) and the neighbours of a pixel in one.
+//! - `pair`: exact swap deltas, the update of a kept swap, and a tile's proposals.
+//! - `assignment`: the Hungarian method and a tile's assignment moves.
+//! - `simd`: the tile loop compiled for AVX-512, AVX2 or the portable baseline.
 
 mod assignment;
 mod energy;
@@ -187,29 +159,42 @@ pub(crate) struct PassPlan {
 /// Totals of one tile's work.
 #[derive(Clone, Copy, Default)]
 struct TileResult {
+    /// Moves proposed (swaps, or assignment sets).
     attempted: u64,
+    /// Moves kept.
     accepted: u64,
+    /// The kept moves' energy change, summed in the order they were made.
     delta: f64,
 }
 
 /// One tile's private copy of its region after its moves, and its totals.
 pub(crate) struct TileOutcome {
+    /// The region's values and pixel energies after the tile's moves.
     region: Region,
+    /// The tile's totals.
     result: TileResult,
 }
 
 /// The optimiser's state: the values and pixel energies, the running energy and counters.
 pub struct SwapOptimizer {
+    /// The energy's weights and parameters.
     kernel: SwapKernel,
     /// The whole volume: the values and each pixel's energy `e(p)`
     /// ([`SwapKernel::pixel_energies`]), kept up to date by every accepted swap.
     state: Region,
+    /// Seed of the tile grids and proposals.
     seed: u64,
+    /// Passes run so far (swap and assignment passes): numbers the next pass's random streams.
     passes: u64,
+    /// The running energy ([`SwapOptimizer::energy`]).
     energy: f64,
+    /// Moves proposed so far.
     attempted: u64,
+    /// Moves kept so far.
     accepted: u64,
+    /// Preferred side of a swap pass's tiles, in pixels.
     tile_target: u32,
+    /// Most partner candidates a proposal draws.
     partner_candidates: u32,
 }
 
@@ -307,6 +292,7 @@ impl SwapOptimizer {
         self.state.values
     }
 
+    /// Panics if pixel `(x, y)` of slice `z` is outside the volume.
     fn check_pixel(&self, (x, y): (u32, u32), z: u32) {
         assert!(
             x < self.kernel.width && y < self.kernel.height && z < self.kernel.depth,

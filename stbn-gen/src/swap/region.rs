@@ -8,8 +8,9 @@ use crate::torus::{canonical, wrap};
 /// Index steps from a pixel to its neighbours in a block of pixels: `width × height` per slice,
 /// every slice (the volume, or a tile's region).
 pub(super) struct Steps {
-    /// Pixels per row and rows per slice of the block.
+    /// Pixels per row of the block.
     pub(super) width: u32,
+    /// Rows per slice of the block.
     pub(super) height: u32,
     /// `dy · width + dx` of each spatial tap, for pixels whose taps stay inside the block.
     pub(super) spatial: Vec<isize>,
@@ -21,6 +22,7 @@ pub(super) struct Steps {
 /// Values and pixel energies of a block of pixels: the whole volume (the optimiser's state) or a
 /// tile's private copy of its region ([`crate::schedule`]), indexed as its [`Steps`] say.
 pub(super) struct Region {
+    /// The block's size and the neighbour steps in it.
     pub(super) steps: Steps,
     /// `f32` components, index `pixel · dims + c`, pixel `(z · height + y) · width + x`.
     pub(super) values: Vec<f32>,
@@ -255,6 +257,86 @@ mod tests {
                     }
                 }
             }
+        }
+    }
+
+    /// In a tile's copy of its region, every tile pixel has the neighbours it has in the volume,
+    /// tap for tap, and two tile pixels interact through the same tap; the copy written back
+    /// unchanged leaves the volume as it was.
+    #[test]
+    fn a_region_copy_has_the_volume_neighbours() {
+        use crate::SampleSpace;
+        use crate::rng::VECTOR;
+        use crate::schedule::{Layout, PassKey, SpanStart};
+        for (w, h, d) in [(40, 36, 3), (20, 9, 2), (7, 5, 2)] {
+            let spec = VectorSpec::new(w, h, d, 3, SampleSpace::Vec { dims: 2 });
+            let start = crate::generate_vector(&spec.clone().unoptimised())
+                .unwrap()
+                .0
+                .values()
+                .to_vec();
+            let mut o = SwapOptimizer::new(&spec, start.clone());
+            let k = &o.kernel;
+            for (target, span_start) in [(8, SpanStart::PassOffset), (16, SpanStart::Origin)] {
+                let layout = Layout {
+                    width: w,
+                    height: h,
+                    reach: k.reach(),
+                    target,
+                    span_start,
+                };
+                for pass in 0..3 {
+                    let key = PassKey {
+                        seed: 3,
+                        streams: VECTOR,
+                        pass,
+                    };
+                    for tile in layout.tiles(key) {
+                        let copy = o.state.tile_copy(k, &tile);
+                        // Region index to volume index.
+                        let to_volume = |r: usize| {
+                            let (rw, rh) = (tile.rw as usize, tile.rh as usize);
+                            let (z, y, x) = (r / (rw * rh), r / rw % rh, r % rw);
+                            let gx = (tile.rx0 as usize + x) % w as usize;
+                            let gy = (tile.ry0 as usize + y) % h as usize;
+                            (z * h as usize + gy) * w as usize + gx
+                        };
+                        let global = |(x, y): (u32, u32)| ((tile.rx0 + x) % w, (tile.ry0 + y) % h);
+                        for z in 0..d {
+                            for i in 0..tile.pixels() {
+                                let local = tile.local(i);
+                                let centre = copy.index(local, z);
+                                let mut seen = Vec::new();
+                                k.for_each_neighbour(
+                                    &copy.steps,
+                                    (local.0, local.1, z),
+                                    centre,
+                                    |t, n| seen.push((t, to_volume(n))),
+                                );
+                                let g = global(local);
+                                let mut expected = Vec::new();
+                                k.for_each_neighbour(
+                                    &o.state.steps,
+                                    (g.0, g.1, z),
+                                    o.state.index(g, z),
+                                    |t, n| expected.push((t, n)),
+                                );
+                                assert_eq!(seen, expected, "{w}x{h}x{d} {tile:?} pixel {i}");
+                                assert_eq!(to_volume(centre), o.state.index(g, z));
+                                for j in 0..tile.pixels() {
+                                    let other = tile.local(j);
+                                    assert_eq!(
+                                        k.spatial_tap(local, other),
+                                        k.spatial_tap(g, global(other))
+                                    );
+                                }
+                            }
+                        }
+                        o.state.write_back(k, &tile, &copy);
+                    }
+                }
+            }
+            assert_eq!(o.values(), start);
         }
     }
 }

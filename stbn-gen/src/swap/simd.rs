@@ -1,4 +1,6 @@
-//! The tile loop compiled for the widest vector instructions the CPU has.
+//! The tile loop compiled for the widest vector instructions the CPU has: AVX-512, AVX2 or the
+//! portable x86-64 baseline (SSE2), chosen at run time. The builds differ only in how wide the
+//! footprint loops run, never in the result (tested bit for bit).
 
 use rand_chacha::ChaCha8Rng;
 
@@ -11,7 +13,7 @@ impl SwapKernel {
     /// [`SwapKernel::run_tile`] for this kernel's value dimension, compiled for AVX-512 or AVX2
     /// where the CPU has it. Those builds only widen the vector loops (16 or 8 `f32` lanes
     /// instead of SSE2's 4) and perform the same IEEE operations in the same order (Rust never
-    /// fuses a multiply and an add), so all give identical bits (tested). AVX2 was 1.3–1.45×
+    /// fuses a multiply and an add), so all give identical bits (tested). AVX2 is 1.3–1.45×
     /// faster than SSE2 (64×64×32, 32 swaps per pixel: Vec2 1.16–1.20 s against 1.67–1.72 s,
     /// UnitVec3 0.94 s against 1.22–1.27 s); AVX-512 is 7–16% faster again (same size, one
     /// thread, four alternating runs, medians: Vec2 3.35 → 2.8 s, UnitVec3 2.7 → 2.5 s).
@@ -36,6 +38,7 @@ impl SwapKernel {
         self.run_tile_dims(region, tile, rng, plan)
     }
 
+    /// [`SwapKernel::run_tile_dims`] compiled with AVX-512F enabled.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
     fn run_tile_avx512(
@@ -48,6 +51,7 @@ impl SwapKernel {
         self.run_tile_dims(region, tile, rng, plan)
     }
 
+    /// [`SwapKernel::run_tile_dims`] compiled with AVX2 enabled.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     fn run_tile_avx2(
@@ -60,6 +64,7 @@ impl SwapKernel {
         self.run_tile_dims(region, tile, rng, plan)
     }
 
+    /// [`SwapKernel::run_tile`] for this kernel's value dimension.
     #[inline(always)]
     fn run_tile_dims(
         &self,
