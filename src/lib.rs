@@ -17,7 +17,7 @@
 //! assert_eq!(threshold, SCALAR_64.sample(100 - 64, -3 + 64, frame + 32));
 //!
 //! // A second, decorrelated value for another sampling dimension.
-//! let _jitter = SCALAR_64.sample_dim(x, y, frame, 1);
+//! let _jitter = SCALAR_64.dimension(1).sample(x, y, frame);
 //!
 //! // Compressed masks decode into a caller-provided buffer (no allocator needed).
 //! let mut buffer = vec![0u8; SCALAR_64_LZ4.decoded_len()];
@@ -30,7 +30,7 @@
 //!
 //! // Vector masks: a cosine-weighted hemisphere direction per pixel per frame, with its pdf.
 //! use stbn_demo::masks::COSINE_64;
-//! let ray = COSINE_64.sample_vector(x, y, frame, stbn_runtime::SampleOffset::ZERO);
+//! let ray = COSINE_64.sample_vector(x, y, frame);
 //! assert!((ray.value.length() - 1.0).abs() < 1e-6 && ray.pdf >= 0.0);
 //! let direction: stbn_runtime::glam::Vec3 = COSINE_64.sample_vec3(x, y, frame);
 //! # let _ = direction;

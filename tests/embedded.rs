@@ -32,7 +32,8 @@ fn blob_of(packed: &PackedStbn<'_>) -> Vec<u8> {
 
 fn decode(packed: &PackedStbn<'_>) -> Vec<u8> {
     let mut buffer = vec![0u8; packed.decoded_len()];
-    packed.decode_into(&mut buffer).unwrap();
+    let viewed = packed.decode_into(&mut buffer).unwrap().data().len();
+    assert_eq!(viewed, buffer.len());
     buffer
 }
 
@@ -159,7 +160,12 @@ fn decode_into_respects_the_caller_buffer() {
     let mut short = vec![0u8; len - 1];
     assert!(SCALAR_64_LZ4.decode_into(&mut short).is_err());
     let mut long = vec![0xAAu8; len + 16];
-    SCALAR_64_LZ4.decode_into(&mut long).unwrap();
+    let view = SCALAR_64_LZ4.decode_into(&mut long).unwrap();
+    assert_eq!(
+        view.data().len(),
+        len,
+        "the view covers the decoded bytes only"
+    );
     assert!(long[len..].iter().all(|&b| b == 0xAA));
     assert_eq!(&long[..len], decode(&SCALAR_64_LZ4));
 }
@@ -205,7 +211,7 @@ fn made(name: &str) -> Vec<u8> {
 #[test]
 fn vector_masks_are_their_recipes_and_sample_as_vectors() {
     use stbn_demo::masks::{COSINE_64, VEC2_32};
-    use stbn_runtime::{SampleOffset, Space, ValueMap};
+    use stbn_runtime::{Space, ValueMap};
 
     // The cosine mask: two octahedral Unorm8 channels, unit vectors with z ≥ 0, pdf z/π.
     let mut plain = COSINE_64.header().to_bytes().to_vec();
@@ -220,7 +226,7 @@ fn vector_masks_are_their_recipes_and_sample_as_vectors() {
     for z in 0..32 {
         for y in 0..64 {
             for x in 0..64 {
-                let s = COSINE_64.sample_vector(x, y, z, SampleOffset::ZERO);
+                let s = COSINE_64.sample_vector(x, y, z);
                 assert!((s.value.length() - 1.0).abs() < 1e-6);
                 // Octahedral Unorm8 bins are ~0.01 wide: a direction at the horizon may
                 // quantise a hair below it.

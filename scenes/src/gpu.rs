@@ -6,7 +6,7 @@
 
 use std::fmt;
 
-use stbn_runtime::gpu::{self as stbn_gpu, ShaderParams, TextureOptions};
+use stbn_runtime::gpu::{self as stbn_gpu, MaskUniform, TextureOptions};
 use stbn_runtime::{Stbn, ValueMap};
 use wgpu::util::DeviceExt;
 
@@ -102,9 +102,8 @@ impl GpuContext {
     }
 }
 
-/// The per-frame uniform `FrameParams`: `frame`, `width`, `height`, `alpha` (f32 bits), `dim1`
-/// (two i32), two words of padding: 32 bytes.
-const FRAME_UNIFORM_SIZE: u64 = 32;
+/// The per-frame uniform `FrameParams`: `frame`, `width`, `height`, `alpha` (f32 bits): 16 bytes.
+const FRAME_UNIFORM_SIZE: u64 = 16;
 
 /// A scene ready for the device: its shader source (without the sampling function) and its
 /// data in a storage buffer. Pipelines are compiled per [`SampleMode`] in
@@ -154,10 +153,11 @@ impl<'a> GpuSceneRenderer<'a> {
                         multisampled: false,
                     },
                 ),
-                entry(1, uniform(ShaderParams::SIZE)),
+                entry(1, uniform(MaskUniform::SIZE)),
                 entry(2, uniform(FRAME_UNIFORM_SIZE)),
                 entry(3, storage(true)),
                 entry(4, storage(false)),
+                entry(5, uniform(MaskUniform::SIZE)),
             ],
         });
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -190,12 +190,13 @@ impl<'a> GpuSceneRenderer<'a> {
     fn pipeline(&self, mode: SampleMode, value_map: ValueMap) -> wgpu::ComputePipeline {
         let source = format!(
             "{stbn}
-struct FrameParams {{ frame: u32, width: u32, height: u32, alpha: f32, dim1: vec2<i32> }}
+struct FrameParams {{ frame: u32, width: u32, height: u32, alpha: f32 }}
 @group(0) @binding(0) var noise: texture_3d<f32>;
-@group(0) @binding(1) var<uniform> noise_params: StbnParams;
+@group(0) @binding(1) var<uniform> noise_dim0: StbnMask;
 @group(0) @binding(2) var<uniform> frame_params: FrameParams;
 @group(0) @binding(3) var<storage, read> scene_data: array<f32>;
 @group(0) @binding(4) var<storage, read_write> history: array<vec2<f32>>;
+@group(0) @binding(5) var<uniform> noise_dim1: StbnMask;
 {accumulate}
 {sample}
 {scene}
@@ -259,11 +260,18 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {{
             dimension: Some(wgpu::TextureViewDimension::D3),
             ..Default::default()
         });
-        let noise_params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("noise params"),
-            contents: &ShaderParams::for_texture(&texture).to_bytes(),
-            usage: wgpu::BufferUsages::UNIFORM,
-        });
+        let mask_uniform = |label, uniform: MaskUniform| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents: &uniform.to_bytes(),
+                usage: wgpu::BufferUsages::UNIFORM,
+            })
+        };
+        let noise_dim0 = mask_uniform("noise dimension 0", MaskUniform::new(noise, &texture));
+        let noise_dim1 = mask_uniform(
+            "noise dimension 1",
+            MaskUniform::new(noise.dimension(1), &texture),
+        );
         let frame_params = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("frame params"),
             size: FRAME_UNIFORM_SIZE,
@@ -294,7 +302,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {{
                 },
                 wgpu::BindGroupEntry {
                     binding: 1,
-                    resource: noise_params.as_entire_binding(),
+                    resource: noise_dim0.as_entire_binding(),
                 },
                 wgpu::BindGroupEntry {
                     binding: 2,
@@ -308,21 +316,15 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {{
                     binding: 4,
                     resource: history.as_entire_binding(),
                 },
+                wgpu::BindGroupEntry {
+                    binding: 5,
+                    resource: noise_dim1.as_entire_binding(),
+                },
             ],
         });
-        let dim1 = noise.dimension_offset(1);
         let mut out = Vec::with_capacity(checkpoints.len());
         for frame in 0..frames {
-            let words = [
-                frame,
-                self.width,
-                self.height,
-                EMA_ALPHA.to_bits(),
-                dim1.x as u32,
-                dim1.y as u32,
-                0,
-                0,
-            ];
+            let words = [frame, self.width, self.height, EMA_ALPHA.to_bits()];
             let bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
             // Written before this frame's submit, so each dispatch sees its own frame number.
             queue.write_buffer(&frame_params, 0, &bytes);

@@ -1,7 +1,7 @@
 //! How a pixel's sample is read from a mask ([`SampleMode`]), on the CPU ([`pixel_sample`]) and
 //! in WGSL ([`wgsl_pixel_sample`]), with the same `f32` operations on both sides.
 
-use stbn_runtime::{SampleOffset, Stbn, ValueMap};
+use stbn_runtime::{Stbn, ValueMap};
 
 use crate::scene::SceneInput;
 
@@ -10,7 +10,7 @@ use crate::scene::SceneInput;
 pub enum SampleMode {
     /// The scalar value `u`: `[u, 0, 0, 0]`.
     Scalar,
-    /// Dimensions 0 and 1 of a scalar mask (`sample` and `sample_dim(.., 1)`, the runtime's R2
+    /// Dimensions 0 and 1 of a scalar mask (`sample` and `dimension(1).sample`, the runtime's R2
     /// offset) mapped by [`cosine_direction`]: `[x, y, z, 0]`.
     CosinePair,
     /// The unit direction a vector mask stores (octahedral or signed): `[x, y, z, 0]`.
@@ -57,28 +57,24 @@ pub fn pixel_sample(noise: &Stbn<'_>, mode: SampleMode, x: i32, y: i32, frame: u
     match mode {
         SampleMode::Scalar => [noise.sample(x, y, frame), 0.0, 0.0, 0.0],
         SampleMode::CosinePair => {
-            let [a, b, c] =
-                cosine_direction(noise.sample(x, y, frame), noise.sample_dim(x, y, frame, 1));
+            let u2 = noise.dimension(1).sample(x, y, frame);
+            let [a, b, c] = cosine_direction(noise.sample(x, y, frame), u2);
             [a, b, c, 0.0]
         }
-        SampleMode::Direction => noise
-            .sample_vector(x, y, frame, SampleOffset::ZERO)
-            .value
-            .to_array(),
+        SampleMode::Direction => noise.sample_vector(x, y, frame).value.to_array(),
     }
 }
 
 /// WGSL defining `fn pixel_sample(x: i32, y: i32, frame: u32) -> vec4<f32>`, the shader twin of
 /// [`pixel_sample`] for `mode` and a mask with `value_map`. It reads the bindings `noise`
-/// (`texture_3d<f32>`) and `noise_params` (`StbnParams`), and for
-/// [`SampleMode::CosinePair`] `frame_params.dim1` (`vec2<i32>`, set to the mask's
-/// `dimension_offset(1)`).
+/// (`texture_3d<f32>`) and `noise_dim0` (`StbnMask`, the mask's own uniform), and for
+/// [`SampleMode::CosinePair`] `noise_dim1` (`StbnMask`, the uniform of the mask's
+/// `dimension(1)`).
 pub fn wgsl_pixel_sample(mode: SampleMode, value_map: ValueMap) -> String {
     let body = match (mode, value_map) {
         (SampleMode::Scalar, _) => "return vec4<f32>(s.x, 0.0, 0.0, 0.0);",
         (SampleMode::CosinePair, _) => {
-            "let u2 = stbn_sample_3d(noise, noise_params, x, y, frame, vec2<i32>(0), 0u, \
-             frame_params.dim1).x;
+            "let u2 = stbn_sample_3d(noise, noise_dim1, x, y, frame).x;
     return vec4<f32>(cosine_direction(s.x, u2), 0.0);"
         }
         (SampleMode::Direction, ValueMap::Octahedral) => {
@@ -89,7 +85,7 @@ pub fn wgsl_pixel_sample(mode: SampleMode, value_map: ValueMap) -> String {
     format!(
         "{WGSL_COSINE}
 fn pixel_sample(x: i32, y: i32, frame: u32) -> vec4<f32> {{
-    let s = stbn_sample_3d(noise, noise_params, x, y, frame, vec2<i32>(0), 0u, vec2<i32>(0));
+    let s = stbn_sample_3d(noise, noise_dim0, x, y, frame);
     {body}
 }}
 "

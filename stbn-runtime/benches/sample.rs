@@ -2,13 +2,14 @@
 //! a plain-loop baseline in the same run.
 //!
 //! Scalar masks (groups `unorm8_128x128`, `unorm16_128x128`, `f32_128x128`): `sample`,
-//! `sample_with` (an x/y/frame offset), `sample_dim` (an R2 dimension offset), `fill_row` (a
-//! wrapping row start), `fill_frame`, and `plain_loop`: a hand-written loop that decodes the
-//! frame's bytes straight from the payload (no wrapping, no header), the floor a general
-//! sampler is measured against.
+//! `sample` through an offset view (`offset_sample_loop`: an x/y/frame offset;
+//! `dimension_sample_loop`: an R2 dimension offset), `fill_row` (a wrapping row start),
+//! `fill_frame`, and `plain_loop`: a hand-written loop that decodes the frame's bytes straight
+//! from the payload (no wrapping, no header), the floor a general sampler is measured against.
 //!
 //! Vector masks (groups `vec2_<enc>`, `unitvec3_oct_<enc>`, `unitvec3_signed_<enc>`):
-//! `sample_vector` (value and pdf), `sample_vector` with an offset, `sample_vec2` / `sample_vec3`,
+//! `sample_vector` (value and pdf), `sample_vector` through an offset view, `sample_vec2` /
+//! `sample_vec3`,
 //! and `plain_loop`: the same decode by hand (value map, octahedral decode or normalisation) from
 //! the payload.
 //!
@@ -95,18 +96,18 @@ fn bench_encoding(c: &mut Criterion, name: &str, encoding: Encoding) {
             black_box(&out);
         })
     });
-    group.bench_function("sample_with_loop", |b| {
+    group.bench_function("offset_sample_loop", |b| {
         b.iter(|| {
             frame = frame.wrapping_add(1);
             let f = black_box(frame);
-            let offset = black_box(SampleOffset {
+            let view = mask.offset(black_box(SampleOffset {
                 x: 77,
                 y: -13,
                 frame: 5,
-            });
+            }));
             for y in 0..H as i32 {
                 for x in 0..W as i32 {
-                    out[(y as u32 * W + x as u32) as usize] = mask.sample_with(x, y, f, offset);
+                    out[(y as u32 * W + x as u32) as usize] = view.sample(x, y, f);
                 }
             }
             black_box(&out);
@@ -142,14 +143,14 @@ fn bench_encoding(c: &mut Criterion, name: &str, encoding: Encoding) {
             black_box(&out);
         })
     });
-    group.bench_function("sample_dim_loop", |b| {
+    group.bench_function("dimension_sample_loop", |b| {
         b.iter(|| {
             frame = frame.wrapping_add(1);
             let f = black_box(frame);
-            let dim = black_box(3);
+            let view = mask.dimension(black_box(3));
             for y in 0..H as i32 {
                 for x in 0..W as i32 {
-                    out[(y as u32 * W + x as u32) as usize] = mask.sample_dim(x, y, f, dim);
+                    out[(y as u32 * W + x as u32) as usize] = view.sample(x, y, f);
                 }
             }
             black_box(&out);
@@ -219,16 +220,16 @@ fn bench_vector(c: &mut Criterion, layout: (&str, Space, ValueMap, u8), encoding
     let mut group = c.benchmark_group(format!("{name}_{suffix}"));
     group.throughput(Throughput::Elements(u64::from(W * H)));
     bench_pixels(&mut group, "sample_vector_loop", |x, y, f| {
-        let s = mask.sample_vector(x, y, f, SampleOffset::ZERO);
+        let s = mask.sample_vector(x, y, f);
         s.value.x + s.value.y + s.value.z + s.pdf
     });
-    let offset = black_box(SampleOffset {
+    let view = mask.offset(black_box(SampleOffset {
         x: 77,
         y: -13,
         frame: 5,
-    });
+    }));
     bench_pixels(&mut group, "sample_vector_offset_loop", |x, y, f| {
-        let s = mask.sample_vector(x, y, f, offset);
+        let s = view.sample_vector(x, y, f);
         s.value.x + s.value.y + s.value.z + s.pdf
     });
     if space == Space::Vec {

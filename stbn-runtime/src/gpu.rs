@@ -26,29 +26,36 @@
 //!
 //! # Sampling in WGSL
 //!
-//! Concatenate [`WGSL`] in front of your shader and bind the 16-byte uniform from
-//! [`ShaderParams`]; `stbn_sample_3d` / `stbn_sample_2d_array` then return exactly what
-//! [`Stbn::sample_with`] returns on the CPU (channel 0 in `.x`, channel `c` in component
-//! `c`), for every `i32` x, y and `u32` frame. See the comments in `stbn.wgsl`.
+//! Concatenate [`WGSL`] in front of your shader and bind a uniform `StbnMask` with the bytes
+//! of a [`MaskUniform`]: `stbn_sample_3d(texture, mask, x, y, frame)` /
+//! `stbn_sample_2d_array(..)` then return exactly what the [`OffsetStbn`] view the uniform
+//! was made from returns on the CPU (channel 0 in `.x`, channel `c` in component `c`), for
+//! every `i32` x, y and `u32` frame. One uniform per view: e.g. `mask` and
+//! `mask.dimension(1)` for two sample dimensions. `stbn_offset(mask, xy, frame)` adds a
+//! further offset in the shader, like [`OffsetStbn::offset`]. See the comments in
+//! `stbn.wgsl`.
 //!
 //! # Example
 //! ```no_run
-//! use stbn_runtime::gpu::{self, ShaderParams, TextureOptions};
+//! use stbn_runtime::gpu::{self, MaskUniform, TextureOptions};
 //! use stbn_runtime::PackedStbn;
 //!
 //! # fn run(device: &wgpu::Device, queue: &wgpu::Queue, blob: &[u8]) -> Result<(), Box<dyn std::error::Error>> {
 //! // Any blob: compressed ones are decoded on the CPU first.
-//! let mask = PackedStbn::from_bytes(blob)?.decode()?;
-//! let texture = gpu::create_texture_3d(device, queue, &mask.view(), TextureOptions::default())?;
-//! // The uniform for `StbnParams`, and the snippet in front of the shader.
-//! let params: [u8; 16] = ShaderParams::for_texture(&texture).to_bytes();
+//! let owned = PackedStbn::from_bytes(blob)?.decode()?;
+//! let mask = owned.view();
+//! let texture = gpu::create_texture_3d(device, queue, &mask, TextureOptions::default())?;
+//! // One `StbnMask` uniform per view, and the snippet in front of the shader.
+//! let dimension0: [u8; 32] = MaskUniform::new(&mask, &texture).to_bytes();
+//! let dimension1: [u8; 32] = MaskUniform::new(mask.dimension(1), &texture).to_bytes();
 //! let source = format!(
-//!     "{}\n@group(0) @binding(0) var mask: texture_3d<f32>;\n\
-//!      @group(0) @binding(1) var<uniform> params: StbnParams;\n\
-//!      // ... stbn_sample_3d(mask, params, x, y, frame, vec2(0), 0u, vec2(0)).x\n",
+//!     "{}\n@group(0) @binding(0) var noise: texture_3d<f32>;\n\
+//!      @group(0) @binding(1) var<uniform> dimension0: StbnMask;\n\
+//!      @group(0) @binding(2) var<uniform> dimension1: StbnMask;\n\
+//!      // ... stbn_sample_3d(noise, dimension1, x, y, frame).x\n",
 //!     gpu::WGSL
 //! );
-//! # let _ = (params, source);
+//! # let _ = (dimension0, dimension1, source);
 //! # Ok(())
 //! # }
 //! ```
@@ -58,13 +65,13 @@ extern crate std;
 use std::fmt;
 use std::vec::Vec;
 
-use crate::{Encoding, Stbn};
+use crate::{Encoding, OffsetStbn, Stbn};
 
-/// The WGSL sampling snippet (`stbn.wgsl`): the `StbnParams` struct, the
-/// `stbn_wrap`, `stbn_texel`, `stbn_decode`, `stbn_sample_3d` and `stbn_sample_2d_array`
-/// functions, and the vector helpers `stbn_signed`, `stbn_octahedral` and `stbn_stored_pdf`
-/// that turn a sample into what [`Stbn::sample_vector`] returns. Declares no bindings;
-/// prepend it to a shader module's source.
+/// The WGSL sampling snippet (`stbn.wgsl`): the `StbnMask` struct ([`MaskUniform`]), the
+/// samplers `stbn_sample_3d` and `stbn_sample_2d_array`, `stbn_offset`, and the vector
+/// helpers `stbn_signed`, `stbn_octahedral` and `stbn_stored_pdf` that turn a sample into
+/// what [`Stbn::sample_vector`] returns; its internal functions start with `stbn_` too.
+/// Declares no bindings; prepend it to a shader module's source.
 pub const WGSL: &str = include_str!("stbn.wgsl");
 
 /// How [`create_texture_3d`] / [`create_texture_2d_array`] create the texture.
@@ -118,6 +125,7 @@ impl std::error::Error for GpuError {}
 /// The texture format [`create_texture_3d`] / [`create_texture_2d_array`] use for a mask
 /// with this `encoding` and `channels` (1..=4) on a device with `features` (see the
 /// [module docs](self) for the table).
+#[must_use]
 pub fn texture_format(
     encoding: Encoding,
     channels: u8,
@@ -138,52 +146,76 @@ pub fn texture_format(
     }
 }
 
-/// The 16-byte uniform the [`WGSL`] functions read, WGSL type `StbnParams`:
-/// `size: vec3<u32>` at byte 0 and `decode: u32` at byte 12.
+/// The 32-byte uniform the [`WGSL`] sampling functions read, WGSL type `StbnMask`: the size
+/// and decode mode of a mask's texture and the offset of an [`OffsetStbn`] view, so that
+/// `stbn_sample_3d(texture, mask, x, y, frame)` returns what the view's methods return on
+/// the CPU.
+///
+/// Layout of [`to_bytes`](Self::to_bytes) (little-endian `u32`s, as the WGSL struct):
+/// `size: vec3<u32>` (width, height, depth in voxels) at byte 0, `decode: u32` at 12,
+/// `offset: vec3<u32>` (x in `[0, width)`, y in `[0, height)`, frame in `[0, depth)`) at 16,
+/// and 4 bytes of zero padding at 28.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct ShaderParams {
-    /// Width, height and depth (frames) of the mask, in voxels.
-    pub size: [u32; 3],
-    /// How the shader turns a `textureLoad` result into the CPU value:
-    /// [`DECODE_FLOAT`](Self::DECODE_FLOAT), [`DECODE_UNORM8`](Self::DECODE_UNORM8) or
-    /// [`DECODE_UNORM16`](Self::DECODE_UNORM16).
-    pub decode: u32,
+#[must_use]
+pub struct MaskUniform {
+    /// Width, height and depth (frames) of the mask, in voxels; each in 1..=2^31.
+    size: [u32; 3],
+    /// [`DECODE_FLOAT`], [`DECODE_UNORM8`] or [`DECODE_UNORM16`].
+    decode: u32,
+    /// The view's offset, each component wrapped into `[0, size)` of its axis.
+    offset: [u32; 3],
 }
 
-impl ShaderParams {
-    /// Size of [`to_bytes`](Self::to_bytes) and of the WGSL struct, in bytes.
-    pub const SIZE: u64 = 16;
-    /// The texel already holds the value (32-bit float formats).
-    pub const DECODE_FLOAT: u32 = 0;
-    /// 8-bit unorm: `textureLoad` gives `q / 255`, the value is `(q + 0.5) / 256`.
-    pub const DECODE_UNORM8: u32 = 1;
-    /// 16-bit unorm: `textureLoad` gives `q / 65535`, the value is `(q + 0.5) / 65536`.
-    pub const DECODE_UNORM16: u32 = 2;
+/// The texel already holds the value (32-bit float formats).
+const DECODE_FLOAT: u32 = 0;
+/// 8-bit unorm: `textureLoad` gives `q / 255`, the value is `(q + 0.5) / 256`.
+const DECODE_UNORM8: u32 = 1;
+/// 16-bit unorm: `textureLoad` gives `q / 65535`, the value is `(q + 0.5) / 65536`.
+const DECODE_UNORM16: u32 = 2;
 
-    /// The parameters for a texture made by [`create_texture_3d`] or
-    /// [`create_texture_2d_array`]: its size and the decode mode of its format.
-    pub fn for_texture(texture: &wgpu::Texture) -> Self {
+impl MaskUniform {
+    /// Size of [`to_bytes`](Self::to_bytes) and of the WGSL struct `StbnMask`, in bytes: the
+    /// `min_binding_size` of its uniform binding.
+    pub const SIZE: u64 = 32;
+
+    /// The uniform for sampling `mask` (an [`OffsetStbn`] view, or `&Stbn` for offset zero)
+    /// from `texture`, which [`create_texture_3d`] or [`create_texture_2d_array`] made from
+    /// that mask: the mask's size, the decode mode of the texture's format and the view's
+    /// offset.
+    ///
+    /// # Panics
+    /// If `texture`'s size is not the mask's width × height × depth.
+    pub fn new<'m>(mask: impl Into<OffsetStbn<'m>>, texture: &wgpu::Texture) -> Self {
         use wgpu::TextureFormat as F;
-        let size = texture.size();
+        let view = mask.into();
+        let size = [view.mask.width(), view.mask.height(), view.mask.depth()];
+        let extent = texture.size();
+        assert_eq!(
+            [extent.width, extent.height, extent.depth_or_array_layers],
+            size,
+            "the texture is not an upload of this mask"
+        );
         let decode = match texture.format() {
-            F::R8Unorm | F::Rg8Unorm | F::Rgba8Unorm => Self::DECODE_UNORM8,
-            F::R16Unorm | F::Rg16Unorm | F::Rgba16Unorm => Self::DECODE_UNORM16,
-            _ => Self::DECODE_FLOAT,
+            F::R8Unorm | F::Rg8Unorm | F::Rgba8Unorm => DECODE_UNORM8,
+            F::R16Unorm | F::Rg16Unorm | F::Rgba16Unorm => DECODE_UNORM16,
+            _ => DECODE_FLOAT,
         };
+        let offset = view.sample_offset();
+        // The wrapped components are non-negative (below their axis length).
         Self {
-            size: [size.width, size.height, size.depth_or_array_layers],
+            size,
             decode,
+            offset: [offset.x as u32, offset.y as u32, offset.frame],
         }
     }
 
     /// The little-endian bytes of the uniform, ready for `queue.write_buffer` or a
     /// buffer's initial contents.
-    pub fn to_bytes(&self) -> [u8; 16] {
-        let mut out = [0u8; 16];
-        for (chunk, word) in out
-            .chunks_exact_mut(4)
-            .zip(self.size.iter().chain([&self.decode]))
-        {
+    #[must_use]
+    pub fn to_bytes(&self) -> [u8; 32] {
+        let mut out = [0u8; 32];
+        let words = self.size.iter().chain([&self.decode]).chain(&self.offset);
+        for (chunk, word) in out.chunks_exact_mut(4).zip(words) {
             chunk.copy_from_slice(&word.to_le_bytes());
         }
         out

@@ -24,6 +24,7 @@ pub enum Encoding {
 
 impl Encoding {
     /// Bytes one element occupies in the decoded payload: 1, 2 or 4.
+    #[must_use]
     pub const fn bytes_per_element(self) -> usize {
         match self {
             Self::Unorm8 => 1,
@@ -33,6 +34,7 @@ impl Encoding {
     }
 
     /// The enum for header byte 21, or `None` if `byte` is not 0, 1 or 2.
+    #[must_use]
     pub const fn from_u8(byte: u8) -> Option<Self> {
         match byte {
             0 => Some(Self::Unorm8),
@@ -43,6 +45,7 @@ impl Encoding {
     }
 
     /// The header byte for this encoding (0, 1 or 2).
+    #[must_use]
     pub const fn to_u8(self) -> u8 {
         self as u8
     }
@@ -62,6 +65,7 @@ pub enum Compression {
 
 impl Compression {
     /// The enum for header byte 22, or `None` if `byte` is not 0, 1 or 2.
+    #[must_use]
     pub const fn from_u8(byte: u8) -> Option<Self> {
         match byte {
             0 => Some(Self::None),
@@ -72,11 +76,13 @@ impl Compression {
     }
 
     /// The header byte for this compression (0, 1 or 2).
+    #[must_use]
     pub const fn to_u8(self) -> u8 {
         self as u8
     }
 
     /// `true` for [`Compression::None`], whose payload can be viewed without copying.
+    #[must_use]
     pub const fn is_none(self) -> bool {
         matches!(self, Self::None)
     }
@@ -100,6 +106,7 @@ pub enum ValueMap {
 
 impl ValueMap {
     /// The enum for header byte 23, or `None` if `byte` is not 0, 1 or 2.
+    #[must_use]
     pub const fn from_u8(byte: u8) -> Option<Self> {
         match byte {
             0 => Some(Self::Unit),
@@ -110,6 +117,7 @@ impl ValueMap {
     }
 
     /// The header byte for this value map (0, 1 or 2).
+    #[must_use]
     pub const fn to_u8(self) -> u8 {
         self as u8
     }
@@ -119,6 +127,7 @@ impl ValueMap {
     /// `[-1, 1]`) for [`Signed`](Self::Signed) and for the octahedral coordinates of
     /// [`Octahedral`](Self::Octahedral) (which then still need
     /// [`octahedral_decode`](crate::octahedral_decode)).
+    #[must_use]
     pub const fn apply(self, u: f32) -> f32 {
         match self {
             Self::Unit => u,
@@ -158,6 +167,7 @@ pub enum Space {
 
 impl Space {
     /// The enum for header byte 40, or `None` if `byte` is above 6.
+    #[must_use]
     pub const fn from_u8(byte: u8) -> Option<Self> {
         match byte {
             0 => Some(Self::Scalar),
@@ -172,6 +182,7 @@ impl Space {
     }
 
     /// The header byte for this space (0..=6).
+    #[must_use]
     pub const fn to_u8(self) -> u8 {
         self as u8
     }
@@ -179,11 +190,13 @@ impl Space {
     /// `true` for the spaces whose pdf is not derivable from the value, so the last channel
     /// stores it: [`ImagePoints`](Self::ImagePoints) and
     /// [`EnvironmentDirections`](Self::EnvironmentDirections).
+    #[must_use]
     pub const fn stores_pdf(self) -> bool {
         matches!(self, Self::ImagePoints | Self::EnvironmentDirections)
     }
 
     /// `true` for spaces of unit vectors (values are normalised after decoding).
+    #[must_use]
     pub const fn is_unit(self) -> bool {
         matches!(
             self,
@@ -287,6 +300,7 @@ impl MaskHeader {
     /// The header of an uncompressed mask of [`Space::Scalar`] unit values (`ValueMap::Unit`)
     /// without a pdf, with an empty payload; [`with_payload`](Self::with_payload) describes the
     /// bytes to store and [`with_space`](Self::with_space) other spaces.
+    #[must_use]
     pub const fn new(
         width: u32,
         height: u32,
@@ -316,6 +330,7 @@ impl MaskHeader {
     /// A payload longer than `u32::MAX` bytes records `u32::MAX`, which [`parse`](Self::parse)
     /// rejects as not matching the blob; masks within [`MAX_DECODED_BYTES`](crate::MAX_DECODED_BYTES)
     /// never come close.
+    #[must_use]
     pub fn with_payload(mut self, compression: Compression, stored: &[u8]) -> Self {
         self.compression = compression;
         self.payload_len = u32::try_from(stored.len()).unwrap_or(u32::MAX);
@@ -325,6 +340,7 @@ impl MaskHeader {
 
     /// This header with `space`, `value_map` and the stored pdf range `pdf_min..=pdf_max`
     /// (pass `0.0, 0.0` for spaces that store no pdf).
+    #[must_use]
     pub const fn with_space(
         mut self,
         space: Space,
@@ -340,6 +356,7 @@ impl MaskHeader {
     }
 
     /// Channels holding the value: [`channels`](Self::channels) minus the pdf channel, if any.
+    #[must_use]
     pub const fn value_channels(&self) -> u8 {
         if self.space.stores_pdf() {
             self.channels.saturating_sub(1)
@@ -350,6 +367,7 @@ impl MaskHeader {
 
     /// Components of one decoded value: 3 for [`ValueMap::Octahedral`], otherwise
     /// [`value_channels`](Self::value_channels).
+    #[must_use]
     pub const fn dims(&self) -> u8 {
         match self.value_map {
             ValueMap::Octahedral => 3,
@@ -362,6 +380,7 @@ impl MaskHeader {
     ///
     /// Field values are written as they are; a header with out-of-range fields
     /// serialises fine but [`parse`](Self::parse) will reject it.
+    #[must_use]
     pub const fn to_bytes(&self) -> [u8; 64] {
         let mut b = [0u8; 64];
         put(&mut b, 0, &MAGIC);
@@ -564,6 +583,7 @@ impl MaskHeader {
     ///
     /// For a hand-built header whose product overflows or exceeds the bound this
     /// saturates to `usize::MAX`.
+    #[must_use]
     pub const fn decoded_len(&self) -> usize {
         match self.checked_decoded_len() {
             Some(len) => len,
@@ -572,6 +592,7 @@ impl MaskHeader {
     }
 
     /// Number of elements (`width * height * depth * channels`) in the decoded payload.
+    #[must_use]
     pub const fn element_count(&self) -> usize {
         self.decoded_len() / self.encoding.bytes_per_element()
     }

@@ -16,6 +16,22 @@
 //! Values are the stored unit values in `[0, 1)` (Unorm8/Unorm16 decode to bin
 //! midpoints `(q + 0.5) / 2^bits`).
 //!
+//! # Sampling API
+//! [`Stbn`] samples at the requested position; [`Stbn::offset`] (a [`SampleOffset`]:
+//! x, y and a start frame) and [`Stbn::dimension`] (the R2-sequence offset of sample
+//! dimension `i`) return an [`OffsetStbn`], a cheap `Copy` view with the same methods that
+//! samples at the shifted position. Both offer:
+//!
+//! | method | returns |
+//! |---|---|
+//! | `sample(x, y, frame)` | channel 0, the stored unit value |
+//! | `sample_channel(x, y, frame, c)` | channel `c` (panics if `c >= channels`) |
+//! | `sample_vector(x, y, frame)` | the decoded [`VectorSample`]: value and pdf |
+//! | `sample_vec2` / `sample_vec3` / `sample_vec4` | the decoded value's first 2 / 3 / 4 components |
+//! | `sample_pdf(x, y, frame)` | the pdf alone |
+//! | `fill_row(x0, y, frame, out)` | channel 0 of a run of x into `out` |
+//! | `fill_frame(frame, out)` | channel 0 of a whole frame into `out`, row-major |
+//!
 //! # Features
 //! * `alloc` (off by default): `PackedStbn::decode` and `OwnedStbn`.
 //! * `wgpu` (off by default, implies `alloc` and uses `std`): the `gpu` module, which
@@ -23,6 +39,7 @@
 //!
 //! # Example
 //! ```
+//! use stbn_runtime::glam::Vec3;
 //! use stbn_runtime::{Compression, Encoding, MaskHeader, SampleOffset, Space, Stbn, ValueMap};
 //!
 //! // Real code embeds a file written by the generator, e.g.
@@ -68,15 +85,37 @@
 //! assert_eq!(v, MASK.sample(1, 1, 1));
 //! assert!((0.0..1.0).contains(&v));
 //!
-//! // A decorrelated value for sample dimension 1, and a start-frame offset.
-//! let _second_dimension = MASK.sample_dim(5, -1, 3, 1);
-//! let shifted = MASK.sample_with(5, -1, 3, SampleOffset { x: 0, y: 0, frame: 1 });
-//! assert_eq!(shifted, MASK.sample(1, 1, 0));
+//! // Offset views: a decorrelated value for sample dimension 1, and a start-frame offset.
+//! let _second_dimension = MASK.dimension(1).sample(5, -1, 3);
+//! let late_start = MASK.offset(SampleOffset { x: 0, y: 0, frame: 1 });
+//! assert_eq!(late_start.sample(5, -1, 3), MASK.sample(1, 1, 0));
 //!
 //! // A whole frame at once, row-major.
 //! let mut frame = [0.0f32; 8];
 //! assert_eq!(MASK.fill_frame(0, &mut frame), 8);
 //! assert_eq!(frame[4 + 1], MASK.sample(1, 1, 0));
+//!
+//! // A vector mask: cosine-weighted hemisphere directions stored octahedrally in two
+//! // channels (built at run time here; the generator writes real ones).
+//! let header = MaskHeader::new(4, 2, 2, 2, Encoding::Unorm8).with_space(
+//!     Space::CosineHemisphere,
+//!     ValueMap::Octahedral,
+//!     0.0,
+//!     0.0,
+//! );
+//! let payload: Vec<u8> = (0..32).map(|i| (i * 53 % 256) as u8).collect();
+//! let mut bytes = header.with_payload(Compression::None, &payload).to_bytes().to_vec();
+//! bytes.extend_from_slice(&payload);
+//! let directions = Stbn::from_bytes(&bytes)?;
+//!
+//! // The direction of sample dimension 2, shifted 3 voxels along x, with its pdf.
+//! let view = directions.dimension(2).offset(SampleOffset { x: 3, y: 0, frame: 0 });
+//! let d: Vec3 = view.sample_vec3(1, 1, 0);
+//! assert!((d.length() - 1.0).abs() < 1e-6);
+//! let ray = view.sample_vector(1, 1, 0);
+//! assert_eq!(ray.value.truncate(), d);
+//! assert_eq!(ray.pdf, d.z.max(0.0) / core::f32::consts::PI);
+//! # Ok::<(), stbn_runtime::Error>(())
 //! ```
 #![no_std]
 #![forbid(unsafe_code)]
@@ -89,6 +128,7 @@ mod error;
 #[cfg(feature = "wgpu")]
 pub mod gpu;
 mod header;
+mod offset;
 mod packed;
 mod sampler;
 mod vector;
@@ -97,8 +137,9 @@ pub use error::Error;
 /// The glam version whose `Vec2`/`Vec3`/`Vec4` the vector samplers return.
 pub use glam;
 pub use header::{Compression, Encoding, MAX_DECODED_BYTES, MaskHeader, Space, ValueMap};
+pub use offset::{OffsetStbn, SampleOffset};
 #[cfg(feature = "alloc")]
 pub use packed::OwnedStbn;
 pub use packed::PackedStbn;
-pub use sampler::{SampleOffset, Stbn};
+pub use sampler::Stbn;
 pub use vector::{VectorSample, octahedral_decode, octahedral_encode};

@@ -13,6 +13,7 @@ use crate::{Compression, Error, MaskHeader, Stbn};
 /// bytes, and the payload CRC; decoding then only has to check the compressed
 /// stream itself.
 #[derive(Clone, Copy)]
+#[must_use]
 pub struct PackedStbn<'a> {
     header: MaskHeader,
     payload: &'a [u8],
@@ -93,16 +94,19 @@ impl<'a> PackedStbn<'a> {
     }
 
     /// The blob's header (describing the stored, possibly compressed, payload).
+    #[must_use]
     pub const fn header(&self) -> &MaskHeader {
         &self.header
     }
 
     /// The stored payload: `payload_len` bytes, compressed per `header().compression`.
+    #[must_use]
     pub const fn payload(&self) -> &'a [u8] {
         self.payload
     }
 
     /// Bytes the payload decodes to (the buffer size [`decode_into`](Self::decode_into) needs).
+    #[must_use]
     pub const fn decoded_len(&self) -> usize {
         self.header.decoded_len()
     }
@@ -232,11 +236,13 @@ impl fmt::Debug for OwnedStbn {
 #[cfg(feature = "alloc")]
 impl OwnedStbn {
     /// Header describing the decoded data as an uncompressed blob (as [`Stbn::header`]).
+    #[must_use]
     pub const fn header(&self) -> &MaskHeader {
         &self.header
     }
 
     /// The decoded payload, `header().decoded_len()` bytes.
+    #[must_use]
     pub fn data(&self) -> &[u8] {
         &self.data
     }

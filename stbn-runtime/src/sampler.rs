@@ -2,35 +2,7 @@
 
 use core::fmt;
 
-use crate::{Encoding, Error, MaskHeader, PackedStbn};
-
-/// Integer offset added to a sample position before wrapping.
-///
-/// Each component is reduced modulo the mask's size on that axis, so any value
-/// is valid and the sum never overflows (see [`Stbn::sample_with`]).
-///
-/// `frame` is the *start-frame* offset: because the mask is blue in time as well
-/// as toroidal (progressive from any starting frame), a pixel may start its
-/// temporal sequence at any frame, and an `offset.frame` of `k` makes frame `t`
-/// read mask slice `t + k`.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub struct SampleOffset {
-    /// Offset along x, in voxels (any value; wrapped modulo width).
-    pub x: i32,
-    /// Offset along y, in voxels (any value; wrapped modulo height).
-    pub y: i32,
-    /// Start-frame offset, in frames (any value; wrapped modulo depth).
-    pub frame: u32,
-}
-
-impl SampleOffset {
-    /// The zero offset: samples exactly at the requested position.
-    pub const ZERO: Self = Self {
-        x: 0,
-        y: 0,
-        frame: 0,
-    };
-}
+use crate::{Encoding, Error, MaskHeader, PackedStbn, SampleOffset};
 
 /// 2^64 / g rounded to nearest, g = 1.32471795724474602596... (plastic number):
 /// the first R2 sequence constant `a1 = 1/g` in 0.64 fixed point.
@@ -94,12 +66,19 @@ impl Axis {
 ///
 /// All sampling is toroidal: x wraps modulo width, y modulo height and the frame
 /// modulo depth, for every `i32`/`u32` input (negative values and
-/// `i32::MIN`/`u32::MAX` included). Sampling never panics. Axes whose length is a
-/// power of two use a bit mask instead of a division.
+/// `i32::MIN`/`u32::MAX` included). Sampling never panics, except
+/// [`sample_channel`](Self::sample_channel) with a channel index at or above
+/// [`channels`](Self::channels). Axes whose length is a power of two use a bit mask
+/// instead of a division.
+///
+/// The methods here sample at the requested position; [`offset`](Self::offset) and
+/// [`dimension`](Self::dimension) return an [`OffsetStbn`](crate::OffsetStbn) view with
+/// the same methods that samples at a shifted position.
 ///
 /// Invariant: [`data`](Self::data) is exactly `header().decoded_len()` bytes, and
 /// `header().to_bytes()` followed by `data()` is a valid uncompressed blob.
 #[derive(Clone, Copy)]
+#[must_use]
 pub struct Stbn<'a> {
     header: MaskHeader,
     data: &'a [u8],
@@ -198,26 +177,31 @@ impl<'a> Stbn<'a> {
     }
 
     /// Width in voxels (≥ 1).
+    #[must_use]
     pub const fn width(&self) -> u32 {
         self.header.width
     }
 
     /// Height in voxels (≥ 1).
+    #[must_use]
     pub const fn height(&self) -> u32 {
         self.header.height
     }
 
     /// Depth in frames (≥ 1).
+    #[must_use]
     pub const fn depth(&self) -> u32 {
         self.header.depth
     }
 
     /// Channels per voxel (1..=4).
+    #[must_use]
     pub const fn channels(&self) -> u8 {
         self.header.channels
     }
 
     /// Element encoding of [`data`](Self::data).
+    #[must_use]
     pub const fn encoding(&self) -> Encoding {
         self.header.encoding
     }
@@ -225,12 +209,14 @@ impl<'a> Stbn<'a> {
     /// Header describing this view's data as an uncompressed blob: `compression`
     /// is [`Compression::None`](crate::Compression::None), `payload_len` is the decoded length and
     /// `payload_crc32` the CRC of [`data`](Self::data).
+    #[must_use]
     pub const fn header(&self) -> &MaskHeader {
         &self.header
     }
 
     /// The decoded payload: `decoded_len` bytes, element order
     /// `((z * height + y) * width + x) * channels + c`, little-endian elements.
+    #[must_use]
     pub const fn data(&self) -> &'a [u8] {
         self.data
     }
@@ -240,43 +226,48 @@ impl<'a> Stbn<'a> {
     /// Returns the stored unit value `u`: in `[0, 1)` for Unorm encodings (the
     /// bin midpoint `(q + 0.5) / 2^bits`), the stored `f32` for
     /// [`Encoding::F32`]. Use [`ValueMap::apply`](crate::ValueMap::apply) for
-    /// signed masks.
+    /// signed masks. Sample at an offset through [`offset`](Self::offset) or
+    /// [`dimension`](Self::dimension).
+    #[must_use]
     #[inline]
     pub fn sample(&self, x: i32, y: i32, frame: u32) -> f32 {
         self.sample_at(x, y, frame, SampleOffset::ZERO, 0)
     }
 
-    /// Channel `channel` at `(x, y, frame)`, wrapped like [`sample`](Self::sample).
+    /// Channel `channel` (`0..channels`) at `(x, y, frame)`, wrapped like
+    /// [`sample`](Self::sample).
     ///
-    /// `channel` should be below [`channels`](Self::channels); larger values are
-    /// reduced modulo the channel count (so channel 1 of a one-channel mask is
-    /// channel 0).
+    /// # Panics
+    /// If `channel >= channels()`, like an out-of-range slice index, in debug and release
+    /// builds: the channel count is fixed per mask, so a larger index is a bug in the caller.
+    #[must_use]
     #[inline]
+    #[track_caller]
     pub fn sample_channel(&self, x: i32, y: i32, frame: u32, channel: u32) -> f32 {
-        let c = channel as usize % self.channels;
-        self.sample_at(x, y, frame, SampleOffset::ZERO, c)
+        self.channel_at(x, y, frame, SampleOffset::ZERO, channel)
     }
 
-    /// Channel 0 at `(x + offset.x, y + offset.y, frame + offset.frame)`.
-    ///
-    /// The sums are taken modulo the mask size exactly, as if computed in
-    /// unbounded integers, even where they overflow `i32`/`u32`.
-    #[inline]
-    pub fn sample_with(&self, x: i32, y: i32, frame: u32, offset: SampleOffset) -> f32 {
-        self.sample_at(x, y, frame, offset, 0)
+    /// Fills `out[i]` with `sample(x0 + i, y, frame)` for every `i` (the x sum
+    /// wraps exactly, without `i32` overflow); `out` may be longer than the width,
+    /// in which case the row repeats.
+    pub fn fill_row(&self, x0: i32, y: i32, frame: u32, out: &mut [f32]) {
+        self.fill_row_at(x0, y, frame, SampleOffset::ZERO, out);
     }
 
-    /// The offset decorrelating sample dimension `dimension` from dimension 0,
-    /// taken from the R2 low-discrepancy sequence:
-    /// `(floor(fract(i / g) * width), floor(fract(i / g²) * height), 0)` with
-    /// `i = dimension` and `g` the plastic number 1.3247179572….
+    /// Fills `out` with channel 0 of frame `frame` (wrapped modulo depth) in
+    /// row-major order: `out[y * width + x] = sample(x, y, frame)`.
     ///
-    /// Dimension 0 gets [`SampleOffset::ZERO`]. `x` is in `[0, width)` and `y` in
-    /// `[0, height)`; `frame` is 0 (add a start-frame offset yourself if wanted).
-    /// `fract(i·a)` is computed in 0.64 fixed point (`a` rounded to 2^-64, then a
-    /// wrapping `u64` multiply and a `u128` scale): integer arithmetic only, so
-    /// results are bit-identical on every platform.
-    pub const fn dimension_offset(&self, dimension: u32) -> SampleOffset {
+    /// Writes `min(out.len(), width * height)` values and returns that count; a
+    /// shorter `out` receives the first rows (the last one possibly partial), a
+    /// longer one keeps its tail untouched.
+    pub fn fill_frame(&self, frame: u32, out: &mut [f32]) -> usize {
+        self.fill_frame_at(frame, SampleOffset::ZERO, out)
+    }
+
+    /// The R2-sequence offset of sample dimension `dimension`, as [`Stbn::dimension`]
+    /// documents it: `fract(i / g)` and `fract(i / g²)` in 0.64 fixed point, scaled to the
+    /// width and height.
+    pub(crate) const fn dimension_offset(&self, dimension: u32) -> SampleOffset {
         let i = dimension as u64;
         SampleOffset {
             // `scale` returns < width <= MAX_DECODED_BYTES = 2^31, so it fits in i32.
@@ -286,21 +277,31 @@ impl<'a> Stbn<'a> {
         }
     }
 
-    /// Channel 0 for sample dimension `dimension`: [`sample_with`](Self::sample_with)
-    /// at [`dimension_offset(dimension)`](Self::dimension_offset).
-    #[inline]
-    pub fn sample_dim(&self, x: i32, y: i32, frame: u32, dimension: u32) -> f32 {
-        self.sample_with(x, y, frame, self.dimension_offset(dimension))
+    /// `a + b` with each component reduced modulo its axis, exactly (as if summed in
+    /// unbounded integers): x in `[0, width)`, y in `[0, height)`, frame in `[0, depth)`.
+    pub(crate) fn add_offsets(&self, a: SampleOffset, b: SampleOffset) -> SampleOffset {
+        // Each wrapped sum is below its axis length <= MAX_DECODED_BYTES = 2^31.
+        SampleOffset {
+            x: self.x.wrap_signed(a.x, b.x) as i32,
+            y: self.y.wrap_signed(a.y, b.y) as i32,
+            frame: self.z.wrap_unsigned(a.frame, b.frame) as u32,
+        }
     }
 
-    /// Fills `out[i]` with `sample(x0 + i, y, frame)` for every `i` (the x sum
-    /// wraps exactly, without `i32` overflow); `out` may be longer than the width,
-    /// in which case the row repeats.
-    pub fn fill_row(&self, x0: i32, y: i32, frame: u32, out: &mut [f32]) {
-        let row = self.z.wrap_unsigned(frame, 0) * self.frame_stride
-            + self.y.wrap_signed(y, 0) * self.row_stride;
+    /// [`fill_row`](Self::fill_row) at `(x0 + o.x, y + o.y, frame + o.frame)`.
+    #[inline]
+    pub(crate) fn fill_row_at(
+        &self,
+        x0: i32,
+        y: i32,
+        frame: u32,
+        o: SampleOffset,
+        out: &mut [f32],
+    ) {
+        let row = self.z.wrap_unsigned(frame, o.frame) * self.frame_stride
+            + self.y.wrap_signed(y, o.y) * self.row_stride;
         let width = self.header.width as usize;
-        let mut x = self.x.wrap_signed(x0, 0);
+        let mut x = self.x.wrap_signed(x0, o.x);
         let mut rest = out;
         while !rest.is_empty() {
             let run = (width - x).min(rest.len());
@@ -311,23 +312,59 @@ impl<'a> Stbn<'a> {
         }
     }
 
-    /// Fills `out` with channel 0 of frame `frame` (wrapped modulo depth) in
-    /// row-major order: `out[y * width + x] = sample(x, y, frame)`.
-    ///
-    /// Writes `min(out.len(), width * height)` values and returns that count; a
-    /// shorter `out` receives the first rows (the last one possibly partial), a
-    /// longer one keeps its tail untouched.
-    pub fn fill_frame(&self, frame: u32, out: &mut [f32]) -> usize {
-        let n = out
-            .len()
-            .min(self.header.width as usize * self.header.height as usize);
+    /// [`fill_frame`](Self::fill_frame) at offset `o`, which must be wrapped (as
+    /// [`add_offsets`](Self::add_offsets) returns it): one contiguous run when `o` shifts
+    /// only the frame, row by row otherwise.
+    #[inline]
+    pub(crate) fn fill_frame_at(&self, frame: u32, o: SampleOffset, out: &mut [f32]) -> usize {
+        let width = self.header.width as usize;
+        let n = out.len().min(width * self.header.height as usize);
         let (head, _) = out.split_at_mut(n);
-        self.convert_run(self.z.wrap_unsigned(frame, 0) * self.frame_stride, head);
+        if o.x == 0 && o.y == 0 {
+            let z = self.z.wrap_unsigned(frame, o.frame);
+            self.convert_run(z * self.frame_stride, head);
+        } else {
+            for (y, row) in head.chunks_mut(width).enumerate() {
+                // y < height <= 2^31, so it fits in i32.
+                self.fill_row_at(0, y as i32, frame, o, row);
+            }
+        }
         n
     }
 
+    /// Channel `channel` at `(x + o.x, y + o.y, frame + o.frame)`.
+    ///
+    /// # Panics
+    /// If `channel >= channels`.
+    #[inline]
+    #[track_caller]
+    pub(crate) fn channel_at(
+        &self,
+        x: i32,
+        y: i32,
+        frame: u32,
+        o: SampleOffset,
+        channel: u32,
+    ) -> f32 {
+        let c = channel as usize;
+        assert!(
+            c < self.channels,
+            "channel {channel} out of range for a mask with {} channels",
+            self.channels
+        );
+        self.sample_at(x, y, frame, o, c)
+    }
+
+    /// Channel `channel` (< channels) at `(x + o.x, y + o.y, frame + o.frame)`.
     #[inline(always)]
-    fn sample_at(&self, x: i32, y: i32, frame: u32, o: SampleOffset, channel: usize) -> f32 {
+    pub(crate) fn sample_at(
+        &self,
+        x: i32,
+        y: i32,
+        frame: u32,
+        o: SampleOffset,
+        channel: usize,
+    ) -> f32 {
         self.element(self.voxel(x, y, frame, o) + channel)
     }
 

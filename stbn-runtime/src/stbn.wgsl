@@ -1,28 +1,24 @@
 // stbn.wgsl: sample an STBN mask uploaded by stbn_runtime::gpu::create_texture_3d or
-// create_texture_2d_array, returning exactly the CPU's Stbn::sample_with values.
+// create_texture_2d_array, returning exactly what the CPU's Stbn / OffsetStbn return.
 //
 // Prepend this file to your shader (it declares no bindings), bind the texture
 // (sample type float, filterable or not: only textureLoad is used) and a uniform
-// StbnParams filled from stbn_runtime::gpu::ShaderParams::for_texture(..).to_bytes().
+// StbnMask filled from stbn_runtime::gpu::MaskUniform::new(view, &texture).to_bytes().
 //
 // Coordinates: x, y are any i32 and frame any u32 (voxels / frames); the lookup is
-// toroidal on every axis, negative values and i32::MIN / u32::MAX included. Offsets:
-//   offset_xy, offset_frame: SampleOffset { x, y, frame } (start-frame offset in frames);
-//   dim_offset: Stbn::dimension_offset(i) (x, y) for sample dimension i, computed on the
-//     CPU (its R2 fractions are 0.64 fixed point) and passed in, e.g. in a uniform; use
-//     vec2<i32>(0) for dimension 0.
-// Each term is reduced modulo the axis length before it is added, so the result is the
-// sum taken in unbounded integers, as on the CPU. With dim_offset zero,
-// stbn_sample_3d(..).x == Stbn::sample_with(x, y, frame, offset) bit for bit; with
-// offset zero it equals Stbn::sample_dim. Component c holds channel c; components at
-// or beyond the mask's channel count carry no meaning.
+// toroidal on every axis, negative values and i32::MIN / u32::MAX included.
+// stbn_sample_3d(tex, m, x, y, frame) == view.sample_channel(x, y, frame, c) in component c
+// bit for bit, where m is the MaskUniform of view (an OffsetStbn, or the Stbn itself for
+// offset zero); components at or beyond the mask's channel count carry no meaning.
 
-// The 16-byte uniform (ShaderParams on the CPU).
-struct StbnParams {
+// The 32-byte uniform (MaskUniform on the CPU).
+struct StbnMask {
     // Width, height, depth (frames) in voxels; each in 1..=2^31.
     size: vec3<u32>,
     // 0: texel is the value (f32 formats); 1: unorm8; 2: unorm16.
     decode: u32,
+    // The view's offset (x, y, start frame), each component in [0, size).
+    offset: vec3<u32>,
 }
 
 // Euclidean v mod n in [0, n) for every i32 v and 1 <= n <= 2^31. WGSL's % truncates
@@ -36,34 +32,29 @@ fn stbn_wrap(v: i32, n: u32) -> u32 {
     return select(n - r, 0u, r == 0u);
 }
 
-// (a + b) mod n for a, b < n <= 2^31: the sum is below 2^32, so it cannot wrap.
-fn stbn_add_mod(a: u32, b: u32, n: u32) -> u32 {
-    return (a + b) % n;
+// m shifted further by (xy, frame), any i32 / u32: the CPU's OffsetStbn::offset. The
+// offsets add exactly, as if summed in unbounded integers.
+fn stbn_offset(m: StbnMask, xy: vec2<i32>, frame: u32) -> StbnMask {
+    var out = m;
+    let n = m.size;
+    // Each term is below n <= 2^31, so the sums cannot wrap.
+    out.offset = vec3<u32>(
+        (m.offset.x + stbn_wrap(xy.x, n.x)) % n.x,
+        (m.offset.y + stbn_wrap(xy.y, n.y)) % n.y,
+        (m.offset.z + frame % n.z) % n.z,
+    );
+    return out;
 }
 
-// The texel (x, y, frame) of the lookup, each in [0, size).
-fn stbn_texel(
-    p: StbnParams,
-    x: i32,
-    y: i32,
-    frame: u32,
-    offset_xy: vec2<i32>,
-    offset_frame: u32,
-    dim_offset: vec2<i32>,
-) -> vec3<u32> {
-    let n = p.size;
-    let tx = stbn_add_mod(
-        stbn_add_mod(stbn_wrap(x, n.x), stbn_wrap(offset_xy.x, n.x), n.x),
-        stbn_wrap(dim_offset.x, n.x),
-        n.x,
+// The texel (x, y, frame) + m.offset, wrapped into [0, size).
+fn stbn_texel(m: StbnMask, x: i32, y: i32, frame: u32) -> vec3<u32> {
+    let n = m.size;
+    // Each term is below n <= 2^31, so the sums cannot wrap.
+    return vec3<u32>(
+        (stbn_wrap(x, n.x) + m.offset.x) % n.x,
+        (stbn_wrap(y, n.y) + m.offset.y) % n.y,
+        (frame % n.z + m.offset.z) % n.z,
     );
-    let ty = stbn_add_mod(
-        stbn_add_mod(stbn_wrap(y, n.y), stbn_wrap(offset_xy.y, n.y), n.y),
-        stbn_wrap(dim_offset.y, n.y),
-        n.y,
-    );
-    let tz = stbn_add_mod(frame % n.z, offset_frame % n.z, n.z);
-    return vec3<u32>(tx, ty, tz);
 }
 
 // A textureLoad result to the CPU value: unorm texels come back as q / (2^bits - 1);
@@ -79,38 +70,26 @@ fn stbn_decode(raw: vec4<f32>, decode: u32) -> vec4<f32> {
     return raw;
 }
 
-// All channels at (x + offset_xy.x + dim_offset.x, y + ..., frame + offset_frame), wrapped,
-// from a texture made by create_texture_3d.
-fn stbn_sample_3d(
-    tex: texture_3d<f32>,
-    p: StbnParams,
-    x: i32,
-    y: i32,
-    frame: u32,
-    offset_xy: vec2<i32>,
-    offset_frame: u32,
-    dim_offset: vec2<i32>,
-) -> vec4<f32> {
-    let t = stbn_texel(p, x, y, frame, offset_xy, offset_frame, dim_offset);
-    return stbn_decode(textureLoad(tex, t, 0), p.decode);
+// All channels at (x, y, frame) + m.offset, wrapped, from a texture made by
+// create_texture_3d.
+fn stbn_sample_3d(tex: texture_3d<f32>, m: StbnMask, x: i32, y: i32, frame: u32) -> vec4<f32> {
+    let t = stbn_texel(m, x, y, frame);
+    return stbn_decode(textureLoad(tex, t, 0), m.decode);
 }
 
 // As stbn_sample_3d, from a texture made by create_texture_2d_array (layer = frame).
 fn stbn_sample_2d_array(
     tex: texture_2d_array<f32>,
-    p: StbnParams,
+    m: StbnMask,
     x: i32,
     y: i32,
     frame: u32,
-    offset_xy: vec2<i32>,
-    offset_frame: u32,
-    dim_offset: vec2<i32>,
 ) -> vec4<f32> {
-    let t = stbn_texel(p, x, y, frame, offset_xy, offset_frame, dim_offset);
-    return stbn_decode(textureLoad(tex, t.xy, t.z, 0), p.decode);
+    let t = stbn_texel(m, x, y, frame);
+    return stbn_decode(textureLoad(tex, t.xy, t.z, 0), m.decode);
 }
 
-// ---- Vectors: what Stbn::sample_vector does on the CPU ----
+// ---- Vectors: what Stbn::sample_vector / OffsetStbn::sample_vector do on the CPU ----
 // Apply these to the vec4 s returned by stbn_sample_3d / stbn_sample_2d_array, as the
 // mask's header says (space and value map are fixed per mask, so pick them when writing
 // the shader):

@@ -5,7 +5,7 @@ use core::f32::consts::PI;
 
 use glam::{Vec2, Vec3, Vec4};
 
-use crate::{SampleOffset, Space, Stbn, ValueMap};
+use crate::{OffsetStbn, SampleOffset, Space, Stbn, ValueMap};
 
 /// One vector read from a mask: the value and the density it was drawn with.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -24,6 +24,7 @@ pub struct VectorSample {
 /// (Cigolle et al., "A Survey of Efficient Representations for Independent Unit Vectors",
 /// 2014). The result has length 1 (within `f32` rounding) for every input, including the
 /// corners and the fold lines.
+#[must_use]
 pub fn octahedral_decode(e: Vec2) -> Vec3 {
     let z = 1.0 - e.x.abs() - e.y.abs();
     // The lower hemisphere (z < 0) was folded over the diagonals: unfold it without a branch
@@ -38,6 +39,7 @@ pub fn octahedral_decode(e: Vec2) -> Vec3 {
 
 /// Encodes a unit vector `n` as the octahedral coordinates in `[-1, 1]²` that
 /// [`octahedral_decode`] maps back to it. `n` must be non-zero; it need not be normalised.
+#[must_use]
 pub fn octahedral_encode(n: Vec3) -> Vec2 {
     let p = n / (n.x.abs() + n.y.abs() + n.z.abs());
     if p.z < 0.0 {
@@ -59,21 +61,59 @@ fn sign_not_zero(v: f32) -> f32 {
 
 impl Stbn<'_> {
     /// What the values are samples of.
+    #[must_use]
     pub const fn space(&self) -> Space {
         self.header().space
     }
 
     /// Components of one value: 1..=4 (3 for octahedral-encoded directions).
+    #[must_use]
     pub const fn dims(&self) -> u8 {
         self.header().dims()
     }
 
-    /// The vector at `(x + offset.x, y + offset.y, frame + offset.frame)`, wrapped
-    /// toroidally like [`sample_with`](Self::sample_with), with its pdf.
+    /// The vector at `(x, y, frame)`, wrapped toroidally like [`sample`](Self::sample),
+    /// with its pdf.
     ///
     /// Works for every mask: a scalar mask gives `(u, 0, 0, 0)` with pdf 1.
-    pub fn sample_vector(&self, x: i32, y: i32, frame: u32, offset: SampleOffset) -> VectorSample {
-        let voxel = self.voxel(x, y, frame, offset);
+    // Not `#[inline]`: inlined into a caller's pixel loop it measures slower (BENCHMARKS.md).
+    #[must_use]
+    pub fn sample_vector(&self, x: i32, y: i32, frame: u32) -> VectorSample {
+        self.vector_at(self.voxel(x, y, frame, SampleOffset::ZERO))
+    }
+
+    /// The first two components at `(x, y, frame)` (see [`sample_vector`](Self::sample_vector)).
+    #[must_use]
+    #[inline]
+    pub fn sample_vec2(&self, x: i32, y: i32, frame: u32) -> Vec2 {
+        self.sample_vec4(x, y, frame).truncate().truncate()
+    }
+
+    /// The first three components at `(x, y, frame)`: a unit vector for direction masks.
+    #[must_use]
+    #[inline]
+    pub fn sample_vec3(&self, x: i32, y: i32, frame: u32) -> Vec3 {
+        self.sample_vec4(x, y, frame).truncate()
+    }
+
+    /// All four components at `(x, y, frame)` (the value of
+    /// [`sample_vector`](Self::sample_vector), without the pdf).
+    #[must_use]
+    #[inline]
+    pub fn sample_vec4(&self, x: i32, y: i32, frame: u32) -> Vec4 {
+        self.vector_value(self.voxel(x, y, frame, SampleOffset::ZERO))
+    }
+
+    /// The pdf of the value at `(x, y, frame)` (see [`VectorSample::pdf`]).
+    #[must_use]
+    #[inline]
+    pub fn sample_pdf(&self, x: i32, y: i32, frame: u32) -> f32 {
+        self.sample_vector(x, y, frame).pdf
+    }
+
+    /// The value at `voxel` (a channel-0 element index) with its pdf.
+    #[inline]
+    fn vector_at(&self, voxel: usize) -> VectorSample {
         let value = self.vector_value(voxel);
         VectorSample {
             value,
@@ -114,30 +154,43 @@ impl Stbn<'_> {
             derived_pdf(header.space, header.value_map, header.dims(), value)
         }
     }
+}
 
-    /// The first two components at `(x, y, frame)` (see [`sample_vector`](Self::sample_vector)).
+impl OffsetStbn<'_> {
+    /// [`Stbn::sample_vector`] at the offset position: the vector and its pdf.
+    #[must_use]
+    pub fn sample_vector(&self, x: i32, y: i32, frame: u32) -> VectorSample {
+        self.mask
+            .vector_at(self.mask.voxel(x, y, frame, self.offset))
+    }
+
+    /// [`Stbn::sample_vec2`] at the offset position: the first two components.
+    #[must_use]
     #[inline]
     pub fn sample_vec2(&self, x: i32, y: i32, frame: u32) -> Vec2 {
         self.sample_vec4(x, y, frame).truncate().truncate()
     }
 
-    /// The first three components at `(x, y, frame)`: a unit vector for direction masks.
+    /// [`Stbn::sample_vec3`] at the offset position: the first three components.
+    #[must_use]
     #[inline]
     pub fn sample_vec3(&self, x: i32, y: i32, frame: u32) -> Vec3 {
         self.sample_vec4(x, y, frame).truncate()
     }
 
-    /// All four components at `(x, y, frame)` (the value of
-    /// [`sample_vector`](Self::sample_vector), without the pdf).
+    /// [`Stbn::sample_vec4`] at the offset position: all four components.
+    #[must_use]
     #[inline]
     pub fn sample_vec4(&self, x: i32, y: i32, frame: u32) -> Vec4 {
-        self.vector_value(self.voxel(x, y, frame, SampleOffset::ZERO))
+        self.mask
+            .vector_value(self.mask.voxel(x, y, frame, self.offset))
     }
 
-    /// The pdf of the value at `(x, y, frame)` (see [`VectorSample::pdf`]).
+    /// [`Stbn::sample_pdf`] at the offset position (see [`VectorSample::pdf`]).
+    #[must_use]
     #[inline]
     pub fn sample_pdf(&self, x: i32, y: i32, frame: u32) -> f32 {
-        self.sample_vector(x, y, frame, SampleOffset::ZERO).pdf
+        self.sample_vector(x, y, frame).pdf
     }
 }
 

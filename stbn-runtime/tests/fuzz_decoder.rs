@@ -210,14 +210,24 @@ fn check_samples(stbn: &Stbn<'_>, rng: &mut Rng) {
     let unorm = header.encoding != Encoding::F32;
     for _ in 0..8 {
         let (x, y, f) = (rng.next_u32() as i32, rng.next_u32() as i32, rng.next_u32());
-        let offset = stbn.dimension_offset(rng.next_u32());
+        let view = stbn
+            .offset(SampleOffset {
+                x: rng.next_u32() as i32,
+                y: rng.next_u32() as i32,
+                frame: rng.next_u32(),
+            })
+            .dimension(rng.next_u32());
         for c in 0..u32::from(header.channels) {
-            let v = stbn.sample_channel(x, y, f, c);
-            if unorm {
-                assert!((0.0..1.0).contains(&v), "{header:?}: channel {c} = {v}");
+            for v in [
+                stbn.sample_channel(x, y, f, c),
+                view.sample_channel(x, y, f, c),
+            ] {
+                if unorm {
+                    assert!((0.0..1.0).contains(&v), "{header:?}: channel {c} = {v}");
+                }
             }
         }
-        let s = stbn.sample_vector(x, y, f, offset);
+        let s = view.sample_vector(x, y, f);
         assert!(
             s.pdf.is_finite() && s.pdf >= 0.0,
             "{header:?}: pdf {}",
@@ -245,16 +255,14 @@ fn check_samples(stbn: &Stbn<'_>, rng: &mut Rng) {
     );
     let mut frame = vec![0.0f32; 40];
     stbn.fill_frame(rng.next_u32(), &mut frame);
-    let _ = stbn.sample_with(
-        i32::MIN,
-        i32::MAX,
-        u32::MAX,
-        SampleOffset {
-            x: i32::MAX,
-            y: i32::MIN,
-            frame: u32::MAX,
-        },
-    );
+    let corner = stbn.offset(SampleOffset {
+        x: i32::MAX,
+        y: i32::MIN,
+        frame: u32::MAX,
+    });
+    let _ = corner.sample(i32::MIN, i32::MAX, u32::MAX);
+    corner.fill_row(i32::MAX, i32::MIN, u32::MAX, &mut row);
+    corner.fill_frame(rng.next_u32(), &mut frame);
 }
 
 /// Runs every entry point on `bytes`; returns whether a mask was decoded and sampled.

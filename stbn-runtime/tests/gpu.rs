@@ -5,8 +5,8 @@
 mod common;
 
 use common::{Rng, blob, header};
-use stbn_runtime::gpu::{self, GpuError, ShaderParams, TextureOptions};
-use stbn_runtime::{Encoding, SampleOffset, Space, Stbn, ValueMap};
+use stbn_runtime::gpu::{self, GpuError, MaskUniform, TextureOptions};
+use stbn_runtime::{Encoding, OffsetStbn, SampleOffset, Space, Stbn, ValueMap};
 use wgpu::util::DeviceExt;
 
 struct Gpu {
@@ -191,7 +191,8 @@ fn expected_texels(mask: &Stbn<'_>, norm16: bool) -> Vec<u8> {
     out
 }
 
-/// One lookup: `(x, y, frame)`, a `SampleOffset` and an R2 dimension offset.
+/// One lookup: `(x, y, frame)`, a `SampleOffset` and an R2 dimension offset, both added
+/// in the shader with `stbn_offset`.
 #[derive(Clone, Copy, Debug)]
 struct Query {
     x: i32,
@@ -226,7 +227,7 @@ fn queries(mask: &Stbn<'_>, seed: u64) -> Vec<Query> {
     (0..QUERIES)
         .map(|i| {
             let (x, y, f) = (coord(&mut rng), coord(&mut rng), frame(&mut rng));
-            // Cycle through sample, sample_with, sample_dim and both offsets at once.
+            // Cycle through no offset, an offset, a dimension and both at once.
             let offset = if i % 2 == 1 {
                 SampleOffset {
                     x: coord(&mut rng),
@@ -237,7 +238,7 @@ fn queries(mask: &Stbn<'_>, seed: u64) -> Vec<Query> {
                 SampleOffset::ZERO
             };
             let dim = if i % 4 >= 2 {
-                mask.dimension_offset(rng.next_u32() % 1000)
+                mask.dimension(rng.next_u32() % 1000).sample_offset()
             } else {
                 SampleOffset::ZERO
             };
@@ -252,31 +253,27 @@ fn queries(mask: &Stbn<'_>, seed: u64) -> Vec<Query> {
         .collect()
 }
 
-/// The CPU value of channel `c` for `q`: `sample_with` / `sample` / `sample_dim` for
-/// channel 0 as the query asks, `sample_channel` at the wrapped coordinate otherwise.
-fn cpu_value(mask: &Stbn<'_>, q: &Query, c: u32) -> f32 {
+/// The CPU value of channel `c` for `q` through `view` (the view the uniform was made
+/// from): the view shifted by `q.offset` and `q.dim` for channel 0, `sample_channel` of the
+/// mask at the coordinate wrapped by hand otherwise.
+fn cpu_value(mask: &Stbn<'_>, view: OffsetStbn<'_>, q: &Query, c: u32) -> f32 {
+    if c == 0 {
+        return view
+            .offset(q.offset)
+            .offset(q.dim)
+            .sample(q.x, q.y, q.frame);
+    }
     let (w, h, d) = (
         i64::from(mask.width()),
         i64::from(mask.height()),
         i64::from(mask.depth()),
     );
-    if c == 0 {
-        return match (q.offset == SampleOffset::ZERO, q.dim == SampleOffset::ZERO) {
-            (true, true) => mask.sample(q.x, q.y, q.frame),
-            (_, true) => mask.sample_with(q.x, q.y, q.frame, q.offset),
-            _ => {
-                let combined = SampleOffset {
-                    x: (i64::from(q.offset.x) + i64::from(q.dim.x)).rem_euclid(w) as i32,
-                    y: (i64::from(q.offset.y) + i64::from(q.dim.y)).rem_euclid(h) as i32,
-                    frame: q.offset.frame,
-                };
-                mask.sample_with(q.x, q.y, q.frame, combined)
-            }
-        };
-    }
-    let x = (i64::from(q.x) + i64::from(q.offset.x) + i64::from(q.dim.x)).rem_euclid(w);
-    let y = (i64::from(q.y) + i64::from(q.offset.y) + i64::from(q.dim.y)).rem_euclid(h);
-    let z = (i64::from(q.frame) + i64::from(q.offset.frame)).rem_euclid(d);
+    let base = view.sample_offset();
+    let x = (i64::from(q.x) + i64::from(base.x) + i64::from(q.offset.x) + i64::from(q.dim.x))
+        .rem_euclid(w);
+    let y = (i64::from(q.y) + i64::from(base.y) + i64::from(q.offset.y) + i64::from(q.dim.y))
+        .rem_euclid(h);
+    let z = (i64::from(q.frame) + i64::from(base.frame) + i64::from(q.offset.frame)).rem_euclid(d);
     mask.sample_channel(x as i32, y as i32, z as u32, c)
 }
 
@@ -309,7 +306,7 @@ fn sampler_with(g: &Gpu, kind: Kind, result: &str) -> Sampler {
         "{}
 struct Query {{ x: i32, y: i32, frame: u32, ox: i32, oy: i32, oframe: u32, dx: i32, dy: i32 }}
 @group(0) @binding(0) var mask: {texture_type};
-@group(0) @binding(1) var<uniform> params: StbnParams;
+@group(0) @binding(1) var<uniform> params: StbnMask;
 @group(0) @binding(2) var<storage, read> queries: array<Query>;
 @group(0) @binding(3) var<storage, read_write> results: array<vec4<f32>>;
 
@@ -320,8 +317,9 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {{
         return;
     }}
     let q = queries[i];
-    let s = {function}(mask, params, q.x, q.y, q.frame, vec2<i32>(q.ox, q.oy), q.oframe,
-        vec2<i32>(q.dx, q.dy));
+    let m = stbn_offset(stbn_offset(params, vec2<i32>(q.ox, q.oy), q.oframe),
+        vec2<i32>(q.dx, q.dy), 0u);
+    let s = {function}(mask, m, q.x, q.y, q.frame);
     results[i] = {result};
 }}
 ",
@@ -360,7 +358,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {{
                     wgpu::BindingType::Buffer {
                         ty: wgpu::BufferBindingType::Uniform,
                         has_dynamic_offset: false,
-                        min_binding_size: wgpu::BufferSize::new(ShaderParams::SIZE),
+                        min_binding_size: wgpu::BufferSize::new(MaskUniform::SIZE),
                     },
                 ),
                 entry(2, storage(true)),
@@ -391,8 +389,15 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {{
     }
 }
 
-/// Runs every query on the GPU; returns one `[f32; 4]` (all channels) per query.
-fn gpu_values(g: &Gpu, s: &Sampler, texture: &wgpu::Texture, qs: &[Query]) -> Vec<[f32; 4]> {
+/// Runs every query on the GPU with `uniform` bound as `params`; returns one `[f32; 4]` (all
+/// channels) per query.
+fn gpu_values(
+    g: &Gpu,
+    s: &Sampler,
+    texture: &wgpu::Texture,
+    uniform: MaskUniform,
+    qs: &[Query],
+) -> Vec<[f32; 4]> {
     let words: Vec<u8> = qs
         .iter()
         .flat_map(|q| {
@@ -417,11 +422,7 @@ fn gpu_values(g: &Gpu, s: &Sampler, texture: &wgpu::Texture, qs: &[Query]) -> Ve
                 usage,
             })
     };
-    let params = init(
-        "params",
-        &ShaderParams::for_texture(texture).to_bytes(),
-        wgpu::BufferUsages::UNIFORM,
-    );
+    let params = init("params", &uniform.to_bytes(), wgpu::BufferUsages::UNIFORM);
     let queries = init("queries", &words, wgpu::BufferUsages::STORAGE);
     let out_size = (qs.len() * 16) as u64;
     let results = g.device.create_buffer(&wgpu::BufferDescriptor {
@@ -485,7 +486,8 @@ fn gpu_values(g: &Gpu, s: &Sampler, texture: &wgpu::Texture, qs: &[Query]) -> Ve
 
 /// Uploads masks of every encoding, channel count and kind (power-of-two and other
 /// sizes), checks the texels byte for byte and the WGSL sampler against the CPU bit for
-/// bit, for the given `encodings`. Unorm16 uses 16-bit norm formats where the device has
+/// bit, for the given `encodings`, with the uniform made from the mask itself and from an
+/// offset view. Unorm16 uses 16-bit norm formats where the device has
 /// them, the f32 fallback otherwise.
 fn check_backend(g: &Gpu, encodings: &[Encoding]) {
     let norm16 = g
@@ -516,17 +518,21 @@ fn check_backend(g: &Gpu, encodings: &[Encoding]) {
                         "{what}: texels differ from the mask on {}",
                         g.name
                     );
-                    let got = gpu_values(g, s, &texture, &qs);
-                    for (q, v) in qs.iter().zip(&got) {
-                        for c in 0..u32::from(channels) {
-                            let cpu = cpu_value(&mask, q, c);
-                            assert_eq!(
-                                v[c as usize].to_bits(),
-                                cpu.to_bits(),
-                                "{what} channel {c} at {q:?} on {}: GPU {} CPU {cpu}",
-                                g.name,
-                                v[c as usize]
-                            );
+                    let shifted = mask.offset(BASE_OFFSET).dimension(5);
+                    for view in [OffsetStbn::from(&mask), shifted] {
+                        let uniform = MaskUniform::new(view, &texture);
+                        let got = gpu_values(g, s, &texture, uniform, &qs);
+                        for (q, v) in qs.iter().zip(&got) {
+                            for c in 0..u32::from(channels) {
+                                let cpu = cpu_value(&mask, view, q, c);
+                                assert_eq!(
+                                    v[c as usize].to_bits(),
+                                    cpu.to_bits(),
+                                    "{what} {view:?} channel {c} at {q:?} on {}: GPU {} CPU {cpu}",
+                                    g.name,
+                                    v[c as usize]
+                                );
+                            }
                         }
                     }
                 }
@@ -536,6 +542,13 @@ fn check_backend(g: &Gpu, encodings: &[Encoding]) {
 }
 
 const ALL: [Encoding; 3] = [Encoding::Unorm8, Encoding::Unorm16, Encoding::F32];
+
+/// The offset of the view whose uniform [`check_backend`] tests beside the mask's own.
+const BASE_OFFSET: SampleOffset = SampleOffset {
+    x: i32::MIN + 3,
+    y: 77,
+    frame: u32::MAX,
+};
 
 #[test]
 fn vulkan_upload_and_wgsl_sampling_match_the_cpu() {
@@ -614,14 +627,53 @@ fn oversized_masks_are_rejected_before_any_upload() {
 }
 
 #[test]
-fn shader_params_layout_matches_the_wgsl_struct() {
-    let p = ShaderParams {
-        size: [7, 5, 3],
-        decode: ShaderParams::DECODE_UNORM16,
-    };
-    let b = p.to_bytes();
-    assert_eq!(b.len() as u64, ShaderParams::SIZE);
-    assert_eq!(b, [7, 0, 0, 0, 5, 0, 0, 0, 3, 0, 0, 0, 2, 0, 0, 0]);
+fn mask_uniform_layout_matches_the_wgsl_struct() {
+    let g = gpu(wgpu::Backends::VULKAN, Norm16::Require);
+    let bytes = mask_blob(7, 5, 3, 1, Encoding::Unorm16, 3);
+    let mask = Stbn::from_bytes(&bytes).expect("valid test mask");
+    let texture = upload(&g, &mask, Kind::D3);
+    let view = mask.offset(SampleOffset {
+        x: -1,
+        y: 7,
+        frame: 4,
+    });
+    let b = MaskUniform::new(view, &texture).to_bytes();
+    assert_eq!(b.len() as u64, MaskUniform::SIZE);
+    // size (7, 5, 3), decode 2 (unorm16), offset (-1 mod 7, 7 mod 5, 4 mod 3), padding.
+    assert_eq!(
+        b,
+        [
+            7, 0, 0, 0, 5, 0, 0, 0, 3, 0, 0, 0, 2, 0, 0, 0, 6, 0, 0, 0, 2, 0, 0, 0, 1, 0, 0, 0, 0,
+            0, 0, 0
+        ]
+    );
+    // The mask itself is the view at offset zero; 8-bit and float formats decode as 1 and 0.
+    let unorm8 = mask_blob(7, 5, 3, 1, Encoding::Unorm8, 3);
+    let unorm8 = Stbn::from_bytes(&unorm8).expect("valid test mask");
+    let b = MaskUniform::new(&unorm8, &upload(&g, &unorm8, Kind::D2Array)).to_bytes();
+    assert_eq!(
+        &b[12..],
+        [1, 0, 0, 0]
+            .iter()
+            .chain(&[0; 16])
+            .copied()
+            .collect::<Vec<u8>>()
+    );
+    let f32_mask = mask_blob(7, 5, 3, 1, Encoding::F32, 3);
+    let f32_mask = Stbn::from_bytes(&f32_mask).expect("valid test mask");
+    let b = MaskUniform::new(&f32_mask, &upload(&g, &f32_mask, Kind::D3)).to_bytes();
+    assert_eq!(b[12..16], [0, 0, 0, 0]);
+}
+
+#[test]
+#[should_panic(expected = "the texture is not an upload of this mask")]
+fn mask_uniform_rejects_another_masks_texture() {
+    let g = gpu(wgpu::Backends::VULKAN, Norm16::Off);
+    let small = mask_blob(7, 5, 3, 1, Encoding::Unorm8, 3);
+    let small = Stbn::from_bytes(&small).expect("valid test mask");
+    let large = mask_blob(8, 5, 3, 1, Encoding::Unorm8, 3);
+    let large = Stbn::from_bytes(&large).expect("valid test mask");
+    let _ = MaskUniform::new(&small, &upload(&g, &large, Kind::D3));
 }
 
 /// The WGSL vector helpers (`stbn_octahedral`, `stbn_signed` + `normalize`,
@@ -670,14 +722,13 @@ fn vulkan_vector_helpers_match_sample_vector() {
                 let s = sampler_with(&g, Kind::D3, &expr);
                 let texture = upload(&g, &mask, Kind::D3);
                 let qs = queries(&mask, 5);
-                let got = gpu_values(&g, &s, &texture, &qs);
+                let uniform = MaskUniform::new(&mask, &texture);
+                let got = gpu_values(&g, &s, &texture, uniform, &qs);
                 for (q, v) in qs.iter().zip(&got) {
-                    let mut offset = q.offset;
-                    offset.x = (i64::from(offset.x) + i64::from(q.dim.x))
-                        .rem_euclid(i64::from(mask.width())) as i32;
-                    offset.y = (i64::from(offset.y) + i64::from(q.dim.y))
-                        .rem_euclid(i64::from(mask.height())) as i32;
-                    let cpu = mask.sample_vector(q.x, q.y, q.frame, offset);
+                    let cpu = mask
+                        .offset(q.offset)
+                        .offset(q.dim)
+                        .sample_vector(q.x, q.y, q.frame);
                     let what = format!("{:?} {encoding:?} {q:?} on {}", hd.space, g.name);
                     for c in 0..3 {
                         assert!(

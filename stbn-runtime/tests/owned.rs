@@ -19,8 +19,8 @@ fn decode_matches_decode_into() {
         assert_eq!(owned.header(), borrowed.header());
         assert_eq!(owned.view().data(), borrowed.data());
         assert_eq!(
-            owned.view().sample_dim(-4, 9, 2, 3).to_bits(),
-            borrowed.sample_dim(-4, 9, 2, 3).to_bits()
+            owned.view().dimension(3).sample(-4, 9, 2).to_bits(),
+            borrowed.dimension(3).sample(-4, 9, 2).to_bits()
         );
     }
 }

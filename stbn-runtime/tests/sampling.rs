@@ -3,7 +3,7 @@
 mod common;
 
 use common::{Rng, blob, header, random_payload};
-use stbn_runtime::{Encoding, MaskHeader, SampleOffset, Stbn};
+use stbn_runtime::{Encoding, MaskHeader, OffsetStbn, SampleOffset, Stbn};
 
 /// Reference: plain i64/u64 `rem_euclid` indexing and the documented decode formulas.
 fn reference(h: &MaskHeader, data: &[u8], x: i64, y: i64, frame: u64, channel: usize) -> f32 {
@@ -110,10 +110,10 @@ fn sample_and_sample_channel_match_reference() {
                         r.to_bits(),
                         "{h:?} {x} {y} {frame}"
                     );
-                    for ch in 0..6u32 {
-                        let c = ch as usize % usize::from(h.channels);
-                        let r = reference(&h, data, x.into(), y.into(), frame.into(), c);
-                        assert_eq!(s.sample_channel(x, y, frame, ch).to_bits(), r.to_bits());
+                    for c in 0..h.channels {
+                        let r = reference(&h, data, x.into(), y.into(), frame.into(), c.into());
+                        let v = s.sample_channel(x, y, frame, c.into());
+                        assert_eq!(v.to_bits(), r.to_bits());
                     }
                     checked += 1;
                 }
@@ -124,7 +124,7 @@ fn sample_and_sample_channel_match_reference() {
 }
 
 #[test]
-fn sample_with_wraps_overflowing_sums_exactly() {
+fn offset_views_wrap_overflowing_sums_exactly() {
     let mut rng = Rng(2);
     for (h, bytes) in masks() {
         let s = Stbn::from_bytes(&bytes).unwrap();
@@ -152,7 +152,7 @@ fn sample_with_wraps_overflowing_sums_exactly() {
                 0,
             );
             assert_eq!(
-                s.sample_with(x, y, frame, offset).to_bits(),
+                s.offset(offset).sample(x, y, frame).to_bits(),
                 r.to_bits(),
                 "{h:?} ({x},{y},{frame}) + {offset:?}"
             );
@@ -176,13 +176,117 @@ fn sample_with_wraps_overflowing_sums_exactly() {
                 u64::from(u32::MAX) * 2,
                 0,
             );
-            assert_eq!(s.sample_with(x, x, u32::MAX, offset).to_bits(), r.to_bits());
+            assert_eq!(
+                s.offset(offset).sample(x, x, u32::MAX).to_bits(),
+                r.to_bits()
+            );
         }
         assert_eq!(
-            s.sample_with(3, 4, 5, SampleOffset::ZERO).to_bits(),
+            s.offset(SampleOffset::ZERO).sample(3, 4, 5).to_bits(),
             s.sample(3, 4, 5).to_bits()
         );
     }
+}
+
+#[test]
+fn offset_views_compose_exactly() {
+    let mut rng = Rng(5);
+    for (h, bytes) in masks() {
+        let s = Stbn::from_bytes(&bytes).unwrap();
+        let data = &bytes[64..];
+        let xs = signed_coords(h.width, &mut rng);
+        let ys = signed_coords(h.height, &mut rng);
+        let fs = frames(h.depth, &mut rng);
+        let pick = |v: &[i32], r: &mut Rng| v[r.next_u32() as usize % v.len()];
+        let pick_frame = |r: &mut Rng| fs[r.next_u32() as usize % fs.len()];
+        for _ in 0..200 {
+            let (x, y, frame) = (
+                pick(&xs, &mut rng),
+                pick(&ys, &mut rng),
+                pick_frame(&mut rng),
+            );
+            let a = SampleOffset {
+                x: pick(&xs, &mut rng),
+                y: pick(&ys, &mut rng),
+                frame: pick_frame(&mut rng),
+            };
+            let b = SampleOffset {
+                x: pick(&xs, &mut rng),
+                y: pick(&ys, &mut rng),
+                frame: pick_frame(&mut rng),
+            };
+            let (sx, sy, sf) = (
+                i64::from(a.x) + i64::from(b.x),
+                i64::from(a.y) + i64::from(b.y),
+                u64::from(a.frame) + u64::from(b.frame),
+            );
+            let view = s.offset(a).offset(b);
+            assert_eq!(
+                view.sample_offset(),
+                SampleOffset {
+                    x: sx.rem_euclid(h.width.into()) as i32,
+                    y: sy.rem_euclid(h.height.into()) as i32,
+                    frame: (sf % u64::from(h.depth)) as u32,
+                },
+                "{h:?} {a:?} + {b:?}"
+            );
+            for c in 0..h.channels {
+                let r = reference(
+                    &h,
+                    data,
+                    i64::from(x) + sx,
+                    i64::from(y) + sy,
+                    u64::from(frame) + sf,
+                    c.into(),
+                );
+                let v = view.sample_channel(x, y, frame, c.into());
+                assert_eq!(
+                    v.to_bits(),
+                    r.to_bits(),
+                    "{h:?} ({x},{y},{frame}) + {a:?} + {b:?}"
+                );
+                if c == 0 {
+                    assert_eq!(view.sample(x, y, frame).to_bits(), r.to_bits());
+                }
+            }
+            let i = rng.next_u32();
+            let dim = s.dimension(i).sample_offset();
+            let expected = s.offset(a).offset(dim).sample(x, y, frame).to_bits();
+            assert_eq!(
+                s.offset(a).dimension(i).sample(x, y, frame).to_bits(),
+                expected
+            );
+            assert_eq!(
+                s.dimension(i).offset(a).sample(x, y, frame).to_bits(),
+                expected
+            );
+            assert_eq!(
+                OffsetStbn::from(&s).sample(x, y, frame).to_bits(),
+                s.sample(x, y, frame).to_bits()
+            );
+        }
+    }
+}
+
+#[test]
+#[should_panic(expected = "channel 2 out of range for a mask with 2 channels")]
+fn sample_channel_panics_at_the_channel_count() {
+    let h = header(4, 4, 4, 2, Encoding::Unorm8);
+    let bytes = blob(h, &[0; 4 * 4 * 4 * 2]);
+    let s = Stbn::from_bytes(&bytes).unwrap();
+    assert_eq!(s.sample_channel(0, 0, 0, 1), 1.0 / 512.0);
+    let _ = s.sample_channel(0, 0, 0, 2);
+}
+
+#[test]
+#[should_panic(expected = "channel 4294967295 out of range for a mask with 1 channels")]
+fn offset_view_sample_channel_panics_above_the_channel_count() {
+    let h = header(3, 5, 7, 1, Encoding::F32);
+    let bytes = blob(h, &[0; 3 * 5 * 7 * 4]);
+    let s = Stbn::from_bytes(&bytes).unwrap();
+    let view = s.dimension(1);
+    assert_eq!(view.sample_channel(0, 0, 0, 0), 0.0);
+    let _ = view.sample_channel(0, 0, 0, u32::MAX);
 }
 
 /// `floor(fract(i * a) * size)` in f64, or `None` when too close to a bin edge to
@@ -204,9 +308,9 @@ fn dimension_offsets_follow_r2() {
     let mut checked = 0;
     for (h, bytes) in masks() {
         let s = Stbn::from_bytes(&bytes).unwrap();
-        assert_eq!(s.dimension_offset(0), SampleOffset::ZERO);
+        assert_eq!(s.dimension(0).sample_offset(), SampleOffset::ZERO);
         for i in (0..2000).chain([u32::MAX, u32::MAX - 1, 1 << 31]) {
-            let o = s.dimension_offset(i);
+            let o = s.dimension(i).sample_offset();
             assert!((0..h.width as i32).contains(&o.x));
             assert!((0..h.height as i32).contains(&o.y));
             assert_eq!(o.frame, 0);
@@ -222,8 +326,8 @@ fn dimension_offsets_follow_r2() {
             }
             for (x, y, f) in [(0, 0, 0), (-7, 3, 9), (i32::MIN, i32::MAX, u32::MAX)] {
                 assert_eq!(
-                    s.sample_dim(x, y, f, i).to_bits(),
-                    s.sample_with(x, y, f, o).to_bits()
+                    s.dimension(i).sample(x, y, f).to_bits(),
+                    s.offset(o).sample(x, y, f).to_bits()
                 );
             }
         }
@@ -238,7 +342,7 @@ fn dimension_offsets_known_values_and_spread() {
     let s = Stbn::from_bytes(&bytes).unwrap();
     // fract(1/g) = 0.7548776662..., fract(1/g^2) = 0.5698402909...
     assert_eq!(
-        s.dimension_offset(1),
+        s.dimension(1).sample_offset(),
         SampleOffset {
             x: 96,
             y: 72,
@@ -247,7 +351,7 @@ fn dimension_offsets_known_values_and_spread() {
     );
     // fract(2/g) = 0.5097553324..., fract(2/g^2) = 0.1396805819...
     assert_eq!(
-        s.dimension_offset(2),
+        s.dimension(2).sample_offset(),
         SampleOffset {
             x: 65,
             y: 17,
@@ -257,7 +361,7 @@ fn dimension_offsets_known_values_and_spread() {
     // A low-discrepancy sequence: the first 128 offsets are pairwise distinct.
     let mut seen = std::collections::HashSet::new();
     for i in 0..128 {
-        let o = s.dimension_offset(i);
+        let o = s.dimension(i).sample_offset();
         assert!(seen.insert((o.x, o.y)), "dimension {i} repeats {o:?}");
     }
 }
@@ -307,6 +411,74 @@ fn fill_frame_matches_sample_and_handles_any_length() {
                         assert_eq!(v.to_bits(), s.sample(x, y, frame).to_bits(), "{h:?} {i}");
                     } else {
                         assert_eq!(*v, -1.0, "tail must be untouched");
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn offset_view_fills_match_the_reference() {
+    let mut rng = Rng(6);
+    for (h, bytes) in masks() {
+        let s = Stbn::from_bytes(&bytes).unwrap();
+        let data = &bytes[64..];
+        let xs = signed_coords(h.width, &mut rng);
+        let ys = signed_coords(h.height, &mut rng);
+        let area = (h.width * h.height) as usize;
+        for (k, offset) in [
+            SampleOffset {
+                x: 0,
+                y: 0,
+                frame: u32::MAX,
+            },
+            SampleOffset {
+                x: i32::MIN,
+                y: 1,
+                frame: 0,
+            },
+            SampleOffset {
+                x: 5,
+                y: i32::MAX,
+                frame: 3,
+            },
+            s.dimension(7).sample_offset(),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let view = s.offset(offset);
+            let (ox, oy, of) = (
+                i64::from(offset.x),
+                i64::from(offset.y),
+                u64::from(offset.frame),
+            );
+            for frame in [0, h.depth + 1, u32::MAX] {
+                for len in [0, 1, area - 1, area, area + 5] {
+                    let mut out = vec![-1.0f32; len];
+                    assert_eq!(view.fill_frame(frame, &mut out), len.min(area));
+                    for (i, v) in out.iter().enumerate() {
+                        if i < area {
+                            let (x, y) =
+                                ((i % h.width as usize) as i64, (i / h.width as usize) as i64);
+                            let r = reference(&h, data, x + ox, y + oy, u64::from(frame) + of, 0);
+                            assert_eq!(v.to_bits(), r.to_bits(), "{h:?} {offset:?} {i}");
+                        } else {
+                            assert_eq!(*v, -1.0, "tail must be untouched");
+                        }
+                    }
+                }
+                for &x0 in xs.iter().step_by(3 + k) {
+                    for &y in ys.iter().step_by(4) {
+                        let mut out = vec![f32::NAN; 2 * h.width as usize + 3];
+                        view.fill_row(x0, y, frame, &mut out);
+                        for (i, v) in out.iter().enumerate() {
+                            let xr = i64::from(x0) + i as i64 + ox;
+                            let yr = i64::from(y) + oy;
+                            let r = reference(&h, data, xr, yr, u64::from(frame) + of, 0);
+                            assert_eq!(v.to_bits(), r.to_bits(), "{h:?} {offset:?} x0 {x0} i {i}");
+                        }
                     }
                 }
             }

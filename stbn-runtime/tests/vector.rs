@@ -76,7 +76,7 @@ fn octahedral_direction_masks_decode_to_unit_vectors_near_the_originals() {
             let v = stbn.sample_vec3(x as i32, y as i32, z as u32);
             assert!((v.length() - 1.0).abs() < 1e-6, "not unit: {v}");
             assert!((v - n).length() < tolerance, "{encoding:?} {n} read as {v}");
-            let s = stbn.sample_vector(x as i32, y as i32, z as u32, SampleOffset::ZERO);
+            let s = stbn.sample_vector(x as i32, y as i32, z as u32);
             assert_eq!(s.pdf, 1.0 / (4.0 * PI));
             assert_eq!(s.value.w, 0.0);
         }
@@ -128,12 +128,7 @@ fn cosine_hemisphere_pdf_is_z_over_pi_and_uniform_is_constant() {
         let bytes = blob(header, &payload);
         let stbn = Stbn::from_bytes(&bytes).unwrap();
         for (i, n) in dirs.iter().enumerate() {
-            let s = stbn.sample_vector(
-                (i % 4) as i32,
-                (i / 4 % 4) as i32,
-                (i / 16) as u32,
-                SampleOffset::ZERO,
-            );
+            let s = stbn.sample_vector((i % 4) as i32, (i / 4 % 4) as i32, (i / 16) as u32);
             assert!((s.value.truncate() - *n).length() < 1e-6);
             let expected = if space == Space::CosineHemisphere {
                 s.value.z / PI
@@ -184,18 +179,18 @@ fn stored_pdfs_hit_their_range_exactly_and_wrap_like_values() {
         assert_eq!(stbn.sample_pdf(3, 1, 1), pdf_max, "{encoding:?}");
         for i in 0..16 {
             let (x, y, z) = ((i % 4) as i32, (i / 4 % 2) as i32, (i / 8) as u32);
-            let s = stbn.sample_vector(x, y, z, SampleOffset::ZERO);
+            let s = stbn.sample_vector(x, y, z);
             let pdf = pdf_min + t(i) * (pdf_max - pdf_min);
             assert!((s.pdf - pdf).abs() <= 1e-5 * pdf_max, "{encoding:?} {i}");
             // Not normalised: image points are not unit vectors.
             assert!((s.value.x - i as f32 / 16.0).abs() <= 1.0 / 256.0);
             // Toroidal like every other read.
-            let wrapped = stbn.sample_vector(x - 4 * 1000, y + 2 * 77, z + 2, SampleOffset::ZERO);
+            let wrapped = stbn.sample_vector(x - 4 * 1000, y + 2 * 77, z + 2);
             assert_eq!(wrapped, s);
-            assert_eq!(
-                stbn.sample_vector(0, 0, 0, SampleOffset { x, y, frame: z }),
-                s
-            );
+            let view = stbn.offset(SampleOffset { x, y, frame: z });
+            assert_eq!(view.sample_vector(0, 0, 0), s);
+            assert_eq!(view.sample_vec2(0, 0, 0), s.value.truncate().truncate());
+            assert_eq!(view.sample_pdf(0, 0, 0), s.pdf);
         }
     }
 }
@@ -222,7 +217,7 @@ fn signed_vec_masks_have_pdf_two_to_the_minus_n() {
     );
     let bytes = mask(header, |i| vec![i as u8 * 60, 128, 255]);
     let stbn = Stbn::from_bytes(&bytes).unwrap();
-    let s = stbn.sample_vector(1, 0, 0, SampleOffset::ZERO);
+    let s = stbn.sample_vector(1, 0, 0);
     assert_eq!(s.pdf, 0.125);
     // Not normalised: (60 + 0.5)/256·2 - 1, (128.5/256)·2 - 1, (255.5/256)·2 - 1.
     let expected = Vec3::new(60.5 / 128.0 - 1.0, 128.5 / 128.0 - 1.0, 255.5 / 128.0 - 1.0);
@@ -239,6 +234,45 @@ fn octahedral_decode_never_returns_nan_for_any_stored_byte_pair() {
             );
             let n = octahedral_decode(e);
             assert!(n.is_finite() && (n.length() - 1.0).abs() < 1e-6, "{a} {b}");
+        }
+    }
+}
+
+#[test]
+fn offset_views_read_vectors_at_the_shifted_position() {
+    let mut rng = Rng(21);
+    let layouts = [
+        (Space::CosineHemisphere, ValueMap::Octahedral, 2, 0.0, 0.0),
+        (Space::UnitVec, ValueMap::Signed, 3, 0.0, 0.0),
+        (Space::Vec, ValueMap::Unit, 4, 0.0, 0.0),
+        (Space::ImagePoints, ValueMap::Unit, 3, 0.25, 8.0),
+    ];
+    for (space, map, channels, pdf_min, pdf_max) in layouts {
+        let header = MaskHeader::new(5, 4, 3, channels, Encoding::Unorm8)
+            .with_space(space, map, pdf_min, pdf_max);
+        let bytes = blob(header, &rng.bytes(header.decoded_len()));
+        let stbn = Stbn::from_bytes(&bytes).unwrap();
+        for (x, y, f) in [(0, 0, 0), (-1, 5, 7), (i32::MIN, i32::MAX, u32::MAX)] {
+            let offset = SampleOffset {
+                x: i32::MAX,
+                y: -9,
+                frame: u32::MAX,
+            };
+            let view = stbn.offset(offset).dimension(3);
+            let o = view.sample_offset();
+            // The shifted position, wrapped exactly (o is already wrapped into the mask).
+            let (sx, sy, sf) = (
+                (i64::from(x) + i64::from(o.x)).rem_euclid(5) as i32,
+                (i64::from(y) + i64::from(o.y)).rem_euclid(4) as i32,
+                ((u64::from(f) + u64::from(o.frame)) % 3) as u32,
+            );
+            let s = stbn.sample_vector(sx, sy, sf);
+            assert_eq!(view.sample_vector(x, y, f), s, "{space:?}");
+            assert_eq!(view.sample_vec4(x, y, f), s.value);
+            assert_eq!(view.sample_vec3(x, y, f), s.value.truncate());
+            assert_eq!(view.sample_vec2(x, y, f), s.value.truncate().truncate());
+            assert_eq!(view.sample_pdf(x, y, f), s.pdf);
+            assert_eq!(view.sample_vec4(x, y, f), stbn.sample_vec4(sx, sy, sf));
         }
     }
 }

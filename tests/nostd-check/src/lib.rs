@@ -36,13 +36,13 @@ pub unsafe extern "C" fn stbn_check(
     let Ok(view) = Stbn::from_bytes(blob) else {
         return -1.0;
     };
-    let vector = view.sample_vector(x, y, frame, view.dimension_offset(2));
-    let direct = view.sample_dim(x, y, frame, 1) + vector.value.length() + vector.pdf;
+    let vector = view.dimension(2).sample_vector(x, y, frame);
+    let direct = view.dimension(1).sample(x, y, frame) + vector.value.length() + vector.pdf;
     let Ok(packed) = PackedStbn::from_bytes(blob) else {
         return -2.0;
     };
     match packed.decode_into(buf) {
-        Ok(decoded) => direct + decoded.sample_dim(x, y, frame, 1),
+        Ok(decoded) => direct + decoded.dimension(1).sample(x, y, frame),
         Err(_) => -3.0,
     }
 }

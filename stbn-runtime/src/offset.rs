@@ -1,0 +1,143 @@
+//! [`SampleOffset`] and [`OffsetStbn`]: sampling a mask at a shifted position.
+
+use crate::Stbn;
+
+/// Integer offset added to a sample position before wrapping.
+///
+/// Each component is reduced modulo the mask's size on that axis, so any value
+/// is valid and the sum never overflows (see [`Stbn::offset`]).
+///
+/// `frame` is the *start-frame* offset: because the mask is blue in time as well
+/// as toroidal (progressive from any starting frame), a pixel may start its
+/// temporal sequence at any frame, and an `offset.frame` of `k` makes frame `t`
+/// read mask slice `t + k`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct SampleOffset {
+    /// Offset along x, in voxels (any value; wrapped modulo width).
+    pub x: i32,
+    /// Offset along y, in voxels (any value; wrapped modulo height).
+    pub y: i32,
+    /// Start-frame offset, in frames (any value; wrapped modulo depth).
+    pub frame: u32,
+}
+
+impl SampleOffset {
+    /// The zero offset: samples exactly at the requested position.
+    pub const ZERO: Self = Self {
+        x: 0,
+        y: 0,
+        frame: 0,
+    };
+}
+
+/// A mask seen through an offset: every method samples what the same method of the
+/// [`Stbn`] returns at `(x + offset.x, y + offset.y, frame + offset.frame)`.
+///
+/// Made by [`Stbn::offset`] and [`Stbn::dimension`] (or `From<&Stbn>`, at offset zero);
+/// [`offset`](Self::offset) and [`dimension`](Self::dimension) add further offsets. It
+/// borrows the mask and is as cheap to copy as a reference. The sums are taken modulo
+/// the mask size exactly, as if computed in unbounded integers, even where they overflow
+/// `i32`/`u32`.
+///
+/// ```
+/// # use stbn_runtime::{SampleOffset, Stbn};
+/// # fn demo(mask: &Stbn<'_>) {
+/// // A pixel that starts its temporal sequence 11 frames in, for sample dimension 2.
+/// let view = mask.offset(SampleOffset { x: 0, y: 0, frame: 11 }).dimension(2);
+/// let u = view.sample(40, -3, 7);
+/// # let _ = u;
+/// # }
+/// ```
+#[derive(Clone, Copy, Debug)]
+#[must_use]
+pub struct OffsetStbn<'m> {
+    pub(crate) mask: &'m Stbn<'m>,
+    /// As given: each component is wrapped when sampling.
+    pub(crate) offset: SampleOffset,
+}
+
+impl<'m, 'a: 'm> From<&'m Stbn<'a>> for OffsetStbn<'m> {
+    /// The mask at offset zero: samples exactly what the mask's own methods return.
+    fn from(mask: &'m Stbn<'a>) -> Self {
+        mask.offset(SampleOffset::ZERO)
+    }
+}
+
+impl Stbn<'_> {
+    /// The mask seen through `offset`: `mask.offset(o).sample(x, y, frame)` is channel 0
+    /// at `(x + o.x, y + o.y, frame + o.frame)`, wrapped toroidally.
+    pub const fn offset(&self, offset: SampleOffset) -> OffsetStbn<'_> {
+        OffsetStbn { mask: self, offset }
+    }
+
+    /// The mask seen through the offset of sample dimension `dimension`, so that one mask
+    /// serves several decorrelated dimensions of a pixel's sample (dimension 0 is the mask
+    /// itself).
+    ///
+    /// The offset comes from the R2 low-discrepancy sequence:
+    /// `(floor(fract(i / g) * width), floor(fract(i / g²) * height), 0)` with
+    /// `i = dimension` and `g` the plastic number 1.3247179572…, so x is in `[0, width)`, y in
+    /// `[0, height)` and the frame is unchanged (see [`OffsetStbn::sample_offset`]).
+    /// `fract(i·a)` is computed in 0.64 fixed point (`a` rounded to 2^-64, then a wrapping
+    /// `u64` multiply and a `u128` scale): integer arithmetic only, so offsets are
+    /// bit-identical on every platform.
+    pub const fn dimension(&self, dimension: u32) -> OffsetStbn<'_> {
+        self.offset(self.dimension_offset(dimension))
+    }
+}
+
+impl<'m> OffsetStbn<'m> {
+    /// This view shifted further by `offset`: the offsets add, exactly.
+    pub fn offset(self, offset: SampleOffset) -> Self {
+        Self {
+            mask: self.mask,
+            offset: self.mask.add_offsets(self.offset, offset),
+        }
+    }
+
+    /// This view shifted further by the offset of sample dimension `dimension` (see
+    /// [`Stbn::dimension`]).
+    pub fn dimension(self, dimension: u32) -> Self {
+        self.offset(self.mask.dimension_offset(dimension))
+    }
+
+    /// The offset this view adds, each component wrapped into its axis: x in
+    /// `[0, width)`, y in `[0, height)`, frame in `[0, depth)`. Views with equal
+    /// `sample_offset` over the same mask sample the same values.
+    #[must_use]
+    pub fn sample_offset(&self) -> SampleOffset {
+        self.mask.add_offsets(self.offset, SampleOffset::ZERO)
+    }
+
+    /// [`Stbn::sample`] at the offset position: channel 0, the stored unit value.
+    #[must_use]
+    #[inline]
+    pub fn sample(&self, x: i32, y: i32, frame: u32) -> f32 {
+        self.mask.sample_at(x, y, frame, self.offset, 0)
+    }
+
+    /// [`Stbn::sample_channel`] at the offset position: channel `channel`
+    /// (`0..channels`).
+    ///
+    /// # Panics
+    /// If `channel >= channels()` of the mask, in debug and release builds.
+    #[must_use]
+    #[inline]
+    #[track_caller]
+    pub fn sample_channel(&self, x: i32, y: i32, frame: u32, channel: u32) -> f32 {
+        self.mask.channel_at(x, y, frame, self.offset, channel)
+    }
+
+    /// Fills `out[i]` with `sample(x0 + i, y, frame)` for every `i`, like
+    /// [`Stbn::fill_row`].
+    pub fn fill_row(&self, x0: i32, y: i32, frame: u32, out: &mut [f32]) {
+        self.mask.fill_row_at(x0, y, frame, self.offset, out);
+    }
+
+    /// Fills `out` in row-major order with `out[y * width + x] = sample(x, y, frame)`,
+    /// like [`Stbn::fill_frame`]: writes `min(out.len(), width * height)` values and
+    /// returns that count.
+    pub fn fill_frame(&self, frame: u32, out: &mut [f32]) -> usize {
+        self.mask.fill_frame_at(frame, self.sample_offset(), out)
+    }
+}
