@@ -294,7 +294,7 @@ fn vec2_pairs_integrate_2d_functions_better_than_white_pairs() {
             .collect()
     };
     // The second read of a scalar mask at the R2 offset of dimension 1 (what
-    // `SampleOffset::dimension_offset(1)` gives a renderer): fract(1/g, 1/g²) · size.
+    // `Stbn::dimension(1)` gives a renderer): fract(1/g, 1/g²) · size.
     let g = 1.324_717_957_244_746_f64;
     let (ox, oy) = (
         ((1.0 / g) * w as f64) as usize,

@@ -16,7 +16,7 @@ use crate::Result;
 use crate::output::{Cell, Column, Table};
 
 /// The plastic number `g`: the R2 offset of dimension 1 is `fract(1/g, 1/g²)` of the mask size,
-/// as `stbn_runtime::SampleOffset::dimension_offset(1)` gives it.
+/// as `Stbn::dimension(1)` gives it.
 const PLASTIC: f64 = 1.324_717_957_244_746;
 
 /// One mask's 2D samples: components 0 and 1 of every pixel, in `[0, 1)`.
@@ -38,7 +38,7 @@ pub const HEADING: &str = "\n## 2D integration (points in [0, 1)²)\n\n\
      x + y < 1. RMSE over pixels of the Monte Carlo mean / EMA (α 0.1) after n frames; \
      `filtered` is EA's filtered error with random half-spaces as thresholds, at the last \
      frame. References: scalar STBN of the same size read at (x, y) and at the R2 offset \
-     (`dimension_offset(1)`), and two independent white-noise masks. Lower is better.\n";
+     (`dimension(1)`), and two independent white-noise masks. Lower is better.\n";
 
 /// Markdown for one mask of the section: RMSE of Monte Carlo and EMA (α 0.1) estimates after 4,
 /// 16 and `depth` frames for each [`Integrand2D`], and the half-space filtered error at the last

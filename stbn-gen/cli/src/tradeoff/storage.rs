@@ -8,7 +8,7 @@ use stbn_build_support::encode::{
     Layout, encode_payload, encode_vector, encode_vector_payload, encode_volume,
 };
 use stbn_gen::{MaskSpec, SampleSpace, VectorSpec, VectorVolume, Volume};
-use stbn_runtime::{Compression, Encoding, PackedStbn, SampleOffset, Stbn};
+use stbn_runtime::{Compression, Encoding, PackedStbn, Stbn};
 
 use super::measure::Quality;
 use super::swaps::{first_component, is_signed, spaces};
@@ -102,7 +102,7 @@ fn decode(mask: &Mask, view: &Stbn) -> Decoded {
                         field.push(v.clamp(0.0, 1.0));
                     }
                     Mask::Vector { space, volume } => {
-                        let decoded = view.sample_vector(xi, yi, z, SampleOffset::ZERO).value;
+                        let decoded = view.sample_vector(xi, yi, z).value;
                         let exact = volume.value(x, y, z);
                         if matches!(space, SampleSpace::UnitVec3) {
                             // atan2(|a × b|, a · b): accurate for tiny angles, where acos of
