@@ -19,7 +19,7 @@ fn entry(name: &str) -> MaskEntry {
 
 fn generate(name: &str) -> (MaskEntry, Volume) {
     let entry = entry(name);
-    let volume = stbn_gen::generate(&entry.spec()).unwrap();
+    let volume = stbn_gen::generate(&entry.spec(), stbn_gen::Observer::default()).unwrap();
     (entry, volume)
 }
 

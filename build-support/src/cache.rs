@@ -380,8 +380,7 @@ pub fn target_dir(out_dir: &Path, cargo_target_dir: Option<&Path>) -> PathBuf {
 mod tests {
     use super::*;
     use crate::encode::Layout;
-    use stbn_gen::baselines::BaselineKind;
-    use stbn_gen::{EnergyTopology, MaskSpec, SampleSpace, VectorSpec};
+    use stbn_gen::{BaselineKind, EnergyTopology, MaskSpec, SampleSpace, VectorSpec};
 
     #[test]
     fn keys_separate_every_input() {

@@ -57,12 +57,10 @@ use std::sync::Arc;
 use ron::error::SpannedError;
 use ron::extensions::Extensions;
 use serde::Deserialize;
-use stbn_gen::baselines::BaselineKind;
-use stbn_gen::filter_adapted::{
-    FilterAdaptedSpec, FilterAdaptedSpecError, FilterCombination, SpatialFilter, TemporalFilter,
-};
 use stbn_gen::{
-    EnergyTopology, ImagePdf, MaskSpec, SampleSpace, SpecError, VectorSpec, VectorSpecError,
+    BaselineKind, EnergyTopology, FilterAdaptedSpec, FilterAdaptedSpecError, FilterCombination,
+    ImagePdf, MaskSpec, SampleSpace, SpatialFilter, SpecError, TemporalFilter, VectorSpec,
+    VectorSpecError,
 };
 use stbn_runtime::{Compression, Encoding};
 
@@ -120,7 +118,7 @@ pub enum MaskKind {
     /// product, the filter `filtered_error` measures). Scalar by default, with the thresholded
     /// filtered error as its energy; `space: Vec2` (any vector kind without an image) makes a
     /// vector mask of that space with the linear (dot product) energy.
-    /// [`stbn_gen::filter_adapted`].
+    /// [`stbn_gen::FilterAdaptedSpec`].
     FilterAdapted,
 }
 
@@ -129,11 +127,12 @@ pub enum MaskKind {
 pub enum Method {
     /// Void-and-cluster with this energy topology ([`stbn_gen::generate`]).
     VoidAndCluster(EnergyTopology),
-    /// A baseline generator ([`stbn_gen::baselines::generate_baseline`]).
+    /// A baseline generator ([`stbn_gen::generate_baseline`]).
     Baseline(BaselineKind),
     /// The swap optimiser over vector values ([`stbn_gen::generate_vector`]).
     Swap,
-    /// The filter-adapted optimiser ([`stbn_gen::filter_adapted`]).
+    /// The filter-adapted optimiser ([`stbn_gen::generate_filter_adapted`],
+    /// [`stbn_gen::generate_filter_adapted_vector`]).
     FilterAdapted,
 }
 
@@ -531,8 +530,8 @@ impl Manifest {
                 ));
             }
             if let Some((spec, space)) = entry.filter_adapted_spec() {
-                let validated = match &space {
-                    Some(space) => spec.validate_vector(space),
+                let validated = match space {
+                    Some(space) => spec.clone().with_space(space).validate(),
                     None => spec.validate(),
                 };
                 if let Err(e) = validated {
@@ -678,8 +677,8 @@ impl RawMask {
 
     /// The entry with defaults filled in (the image is loaded by the caller).
     fn resolve(&self) -> MaskEntry {
-        let default_sigma = match self.kind {
-            MaskKind::TellusimLayered => stbn_gen::tellusim::DEFAULT_SIGMA,
+        let default_sigma = match self.kind.method() {
+            Method::Baseline(kind) => kind.default_sigma(),
             _ => MaskSpec::DEFAULT_SIGMA,
         };
         let sigma = self.sigma.unwrap_or(default_sigma);
@@ -1279,10 +1278,7 @@ mod tests {
             }
         );
         assert_eq!((spec.swaps_per_pixel, spec.kernel_tolerance), (3.5, 1e-2));
-        assert_eq!(
-            spec.value_kernel,
-            stbn_gen::filter_adapted::ValueKernel::Distance
-        );
+        assert_eq!(spec.value_kernel, stbn_gen::ValueKernel::Distance);
         assert_eq!(space, Some(SampleSpace::UnitVec3));
         assert!(!entry.octahedral);
         // The filter fields belong to FilterAdapted only.

@@ -5,13 +5,9 @@
 //! consumes it, and for vector masks the blob layout. The cache keys blobs by the recipe's
 //! canonical description; the encoder and the CLI generate from it.
 
-use stbn_gen::baselines::{self, BaselineKind};
-use stbn_gen::filter_adapted::{
-    FilterAdaptedSpec, FilterAdaptedSpecError, generate_filter_adapted,
-    generate_filter_adapted_vector,
-};
 use stbn_gen::{
-    EnergyTrace, MaskSpec, SampleSpace, VectorSpec, VectorSpecError, VectorVolume, Volume,
+    BaselineKind, BaselineSpec, EnergyTrace, FilterAdaptedSpec, FilterAdaptedSpecError, MaskSpec,
+    Observer, SampleSpace, VectorSpec, VectorSpecError, VectorVolume, Volume,
 };
 use stbn_runtime::{Compression, Encoding};
 
@@ -61,7 +57,7 @@ impl FilterAdaptedRecipe {
         octahedral: bool,
     ) -> Result<FilterAdaptedRecipe, FilterAdaptedSpecError> {
         match &space {
-            Some(space) => spec.validate_vector(space)?,
+            Some(space) => spec.clone().with_space(space.clone()).validate()?,
             None => spec.validate()?,
         }
         let layout = space
@@ -136,22 +132,35 @@ impl Recipe {
     /// come as [`VectorSpecError::Spec`].
     pub fn generate(&self) -> Result<Generated, VectorSpecError> {
         Ok(match self {
-            Recipe::VoidAndCluster(spec) => Generated::Scalar(stbn_gen::generate(spec)?),
+            Recipe::VoidAndCluster(spec) => {
+                Generated::Scalar(stbn_gen::generate(spec, Observer::default())?)
+            }
             Recipe::Baseline(kind, spec) => {
-                Generated::Scalar(baselines::generate_baseline(*kind, spec)?)
+                let spec = BaselineSpec {
+                    kind: *kind,
+                    mask: spec.clone(),
+                };
+                Generated::Scalar(stbn_gen::generate_baseline(&spec, Observer::default())?)
             }
             Recipe::Vector { spec, .. } => {
-                let (volume, trace) = stbn_gen::generate_vector(spec)?;
+                let mut trace = EnergyTrace::default();
+                let observer = Observer::default().with_trace(&mut trace);
+                let volume = stbn_gen::generate_vector(spec, observer)?;
                 Generated::Vector { volume, trace }
             }
             Recipe::FilterAdapted(recipe) => {
                 let valid = "FilterAdaptedRecipe::new checked the spec";
                 match &recipe.space {
-                    None => Generated::Scalar(generate_filter_adapted(&recipe.spec).expect(valid)),
+                    None => Generated::Scalar(
+                        stbn_gen::generate_filter_adapted(&recipe.spec, Observer::default())
+                            .expect(valid),
+                    ),
                     Some(space) => {
-                        let (volume, trace) =
-                            generate_filter_adapted_vector(&recipe.spec, space, &mut |_| {})
-                                .expect(valid);
+                        let spec = recipe.spec.clone().with_space(space.clone());
+                        let mut trace = EnergyTrace::default();
+                        let observer = Observer::default().with_trace(&mut trace);
+                        let volume =
+                            stbn_gen::generate_filter_adapted_vector(&spec, observer).expect(valid);
                         Generated::Vector { volume, trace }
                     }
                 }
@@ -240,7 +249,7 @@ impl Recipe {
 
 /// The canonical description of a filter-adapted recipe: every spec field, floats as bits.
 fn filter_adapted(recipe: &FilterAdaptedRecipe) -> String {
-    use stbn_gen::filter_adapted::{FilterCombination, SpatialFilter, TemporalFilter};
+    use stbn_gen::{FilterCombination, SpatialFilter, TemporalFilter};
     let FilterAdaptedSpec {
         width,
         height,

@@ -9,10 +9,9 @@
 //! lattice), so the sources differ only in *where* the values sit.
 
 use stbn_build_support::encode::{Layout, encode_vector, encode_volume};
-use stbn_gen::vector::InitialArrangement;
 use stbn_gen::{
-    BaselineKind, EnergyTopology, MaskSpec, SampleSpace, VectorSpec, VectorSpecError, Volume,
-    generate_baseline,
+    BaselineKind, BaselineSpec, EnergyTopology, InitialArrangement, MaskSpec, Observer,
+    SampleSpace, VectorSpec, VectorSpecError, Volume, generate_baseline,
 };
 use stbn_runtime::{Compression, Encoding, Stbn};
 
@@ -159,7 +158,7 @@ impl NoiseMask {
                     vector = vector.unoptimised();
                     vector.initial_arrangement = InitialArrangement::Random;
                 }
-                let (volume, _trace) = stbn_gen::generate_vector(&vector)?;
+                let volume = stbn_gen::generate_vector(&vector, Observer::default())?;
                 encode_vector(
                     &volume,
                     Layout::new(&space, true),
@@ -196,13 +195,21 @@ pub fn generate_all(
 /// Panics for the vector kinds, which have no scalar volume.
 pub fn noise_volume(kind: NoiseKind, spec: &NoiseSpec) -> Result<Volume, VectorSpecError> {
     let mask = MaskSpec::new(spec.width, spec.height, spec.depth, spec.seed);
+    let baseline = |kind| {
+        let spec = BaselineSpec {
+            kind,
+            mask: mask.clone(),
+        };
+        generate_baseline(&spec, Observer::default())
+    };
     Ok(match kind {
-        NoiseKind::Stbn | NoiseKind::StbnPairs => stbn_gen::generate(&mask)?,
+        NoiseKind::Stbn | NoiseKind::StbnPairs => stbn_gen::generate(&mask, Observer::default())?,
         NoiseKind::Blue2D => {
-            stbn_gen::generate(&mask.with_topology(EnergyTopology::Independent2D))?
+            let mask = mask.with_topology(EnergyTopology::Independent2D);
+            stbn_gen::generate(&mask, Observer::default())?
         }
-        NoiseKind::White => generate_baseline(BaselineKind::White, &mask)?,
-        NoiseKind::GoldenRatio2D => generate_baseline(BaselineKind::GoldenRatio2D, &mask)?,
+        NoiseKind::White => baseline(BaselineKind::White)?,
+        NoiseKind::GoldenRatio2D => baseline(BaselineKind::GoldenRatio2D)?,
         NoiseKind::WhiteVectors | NoiseKind::StbnVectors => {
             panic!("{kind:?} is a vector mask")
         }

@@ -14,8 +14,9 @@ use std::time::Instant;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use stbn_gen::analysis::{Field, FilteredErrorOptions, filtered_error};
-use stbn_gen::filter_adapted::{FilterAdaptedSpec, ValueKernel, generate_filter_adapted};
-use stbn_gen::{MaskSpec, Volume};
+use stbn_gen::{
+    FilterAdaptedSpec, MaskSpec, Observer, ValueKernel, Volume, generate_filter_adapted,
+};
 
 fn timing(c: &mut Criterion) {
     if std::env::var_os("STBN_FILTER_ADAPTED_128").is_some() {
@@ -27,7 +28,7 @@ fn timing(c: &mut Criterion) {
         let spec = FilterAdaptedSpec::new(32, 32, 16, 1).with_value_kernel(kernel);
         group.throughput(Throughput::Elements(spec.pixels()));
         group.bench_function(format!("{}_32x32x16", kernel.name()), |b| {
-            b.iter(|| generate_filter_adapted(&spec).unwrap())
+            b.iter(|| generate_filter_adapted(&spec, Observer::default()).unwrap())
         });
     }
     group.finish();
@@ -64,7 +65,7 @@ fn target_128(_: &mut Criterion) {
         .map(|s| s.split(',').filter_map(|b| b.trim().parse().ok()).collect())
         .unwrap_or_else(|| vec![FilterAdaptedSpec::DEFAULT_SWAPS_PER_PIXEL]);
     let start = Instant::now();
-    let stbn = stbn_gen::generate(&MaskSpec::new(128, 128, 64, seed)).unwrap();
+    let stbn = stbn_gen::generate(&MaskSpec::new(128, 128, 64, seed), Observer::default()).unwrap();
     println!(
         "STBN 128×128×64 seed {seed}: {:.1} s, filtered error at the last frame {:.5}",
         start.elapsed().as_secs_f64(),
@@ -74,7 +75,7 @@ fn target_128(_: &mut Criterion) {
         let spec = FilterAdaptedSpec::new(128, 128, 64, seed).with_swaps_per_pixel(budget);
         let load_before = load();
         let start = Instant::now();
-        let volume = generate_filter_adapted(&spec).unwrap();
+        let volume = generate_filter_adapted(&spec, Observer::default()).unwrap();
         let seconds = start.elapsed().as_secs_f64();
         println!(
             "filter-adapted 128×128×64 seed {seed}, {budget} swaps per pixel: {seconds:.1} s \

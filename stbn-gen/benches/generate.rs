@@ -4,7 +4,7 @@
 //! (set `STBN_BENCH_LARGE=1` to add 256×256×128, about 15 s per sample on the 2-core VM).
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use stbn_gen::{EnergyTopology, MaskSpec, generate};
+use stbn_gen::{EnergyTopology, MaskSpec, Observer, generate};
 
 fn scalar(c: &mut Criterion) {
     let mut sizes = vec![(64, 64, 32), (128, 128, 64)];
@@ -17,7 +17,7 @@ fn scalar(c: &mut Criterion) {
         let spec = MaskSpec::new(w, h, d, 1);
         group.throughput(Throughput::Elements(spec.pixels()));
         group.bench_function(format!("{w}x{h}x{d}"), |b| {
-            b.iter(|| generate(&spec).unwrap())
+            b.iter(|| generate(&spec, Observer::default()).unwrap())
         });
     }
     group.finish();
@@ -28,7 +28,9 @@ fn scalar(c: &mut Criterion) {
     group.sample_size(10);
     for topology in [EnergyTopology::Independent2D, EnergyTopology::Isotropic3D] {
         let spec = MaskSpec::new(64, 64, 32, 1).with_topology(topology);
-        group.bench_function(topology.name(), |b| b.iter(|| generate(&spec).unwrap()));
+        group.bench_function(topology.name(), |b| {
+            b.iter(|| generate(&spec, Observer::default()).unwrap())
+        });
     }
     group.finish();
 }

@@ -25,7 +25,17 @@ use stbn_gen::analysis::{
     ConvergenceOptions, Field, FilteredErrorOptions, Integrand2D, convergence_2d,
     filtered_error_vector, spatial_low_band, temporal_low_band,
 };
-use stbn_gen::{SampleSpace, VectorSpec, VectorVolume, generate_vector};
+use stbn_gen::{
+    EnergyTrace, Observer, SampleSpace, VectorSpec, VectorSpecError, VectorVolume, generate_vector,
+};
+
+/// The mask of `spec` and its energy trace.
+fn with_trace(spec: &VectorSpec) -> Result<(VectorVolume, EnergyTrace), VectorSpecError> {
+    let mut trace = EnergyTrace::default();
+    let observer = Observer::default().with_trace(&mut trace);
+    let volume = generate_vector(spec, observer)?;
+    Ok((volume, trace))
+}
 
 fn spaces() -> [(SampleSpace, bool); 2] {
     [
@@ -51,7 +61,7 @@ fn timing(c: &mut Criterion) {
             let spec = VectorSpec::new(w, h, d, 1, space.clone());
             group.throughput(Throughput::Elements(spec.pixels()));
             group.bench_function(format!("{}_{w}x{h}x{d}", space.name()), |b| {
-                b.iter(|| generate_vector(&spec).unwrap())
+                b.iter(|| generate_vector(&spec, Observer::default()).unwrap())
             });
         }
         group.finish();
@@ -126,7 +136,7 @@ fn quality(_: &mut Criterion) {
                 .with_swaps_per_pixel(budget)
                 .with_assignment_passes(assignment);
             let start = Instant::now();
-            let (volume, trace) = generate_vector(&spec).unwrap();
+            let (volume, trace) = with_trace(&spec).unwrap();
             let seconds = start.elapsed().as_secs_f64();
             let energy = trace.points.last().unwrap().energy / spec.pixels() as f64;
             let values = component_values(&volume, signed);
@@ -177,11 +187,11 @@ fn curve(_: &mut Criterion) {
     for (space, signed) in spaces() {
         let spec = VectorSpec::new(w, h, d, 1, space.clone()).with_assignment_passes(0);
         let pixels = spec.pixels() as f64;
-        let half = generate_vector(&spec.clone().with_swaps_per_pixel(0.5))
+        let half = with_trace(&spec.clone().with_swaps_per_pixel(0.5))
             .unwrap()
             .1;
         let start = Instant::now();
-        let (volume, trace) = generate_vector(&spec.clone().with_swaps_per_pixel(max)).unwrap();
+        let (volume, trace) = with_trace(&spec.clone().with_swaps_per_pixel(max)).unwrap();
         let seconds = start.elapsed().as_secs_f64();
         println!(
             "{} {w}x{h}x{d}: {max} swaps/pixel in {seconds:.1} s",

@@ -1,11 +1,12 @@
 //! Baselines to compare masks against: what a renderer uses when it has no spatiotemporal blue
 //! noise.
 //!
-//! # Baseline masks ([`generate_baseline`])
+//! # Baseline masks ([`crate::generate_baseline`])
 //!
 //! Each [`BaselineKind`] is generated as a [`Volume`] of per-slice ranks, like the masks of
 //! [`crate::generate`], so it goes through the same encoder, embedding and analysis. Every slice
-//! is a permutation of `0..W·H`: its values `(rank + ½) / (W·H)` are exactly uniform.
+//! is a permutation of `0..W·H`: its values `(rank + ½) / (W·H)` are exactly uniform. A
+//! [`BaselineSpec`] names the kind, size and seed; the crate root re-exports both types.
 //!
 //! - [`BaselineKind::White`]: a seeded random permutation per slice. White in space and time.
 //! - [`BaselineKind::GoldenRatio2D`]: one 2D void-and-cluster slice (ranks `r₀`), frame `z`
@@ -17,15 +18,20 @@
 //! - [`BaselineKind::RandomShift2D`]: the same slice shifted by a seeded random `s(z) ∈ 0..N` per
 //!   frame: `fract(bn + per-frame random)` as Tellusim describes it. Blue in space, white over
 //!   time.
-//! - [`BaselineKind::TellusimLayered`]: Tellusim's layered void-and-cluster
-//!   ([`crate::tellusim`]).
+//! - [`BaselineKind::TellusimLayered`]: Tellusim's layered void-and-cluster ("Improved Blue
+//!   Noise", 2022): a stack of 2D void-and-cluster masks, each layer's initial pattern the
+//!   previous layer's ranks flipped in X and Y and thresholded at the initial density, with the
+//!   kernel `exp(−d²/σ²) + ε / (1 + d²)` (Tellusim's σ convention, ε = 0.01) over the whole slice
+//!   in exact integers. `O((W·H)² · D)`: fine for the 64×64 and 128×128 slices Tellusim
+//!   recommends, slow for 256×256 and above (BENCHMARKS.md has measured times).
 //!
 //! # Value fields
 //!
-//! The older functions return `width × height × depth` values in `[0, 1)`, index
+//! These functions return `width × height × depth` values in `[0, 1)`, index
 //! `(z · height + y) · width + x`, ready for [`crate::analysis::Field::new`], without the rank
 //! grid: [`white_noise`] (independent uniform values, so slices are only uniform on average),
-//! [`golden_ratio_animated`] and [`random_shift`] of one [`blue_noise_2d`] slice.
+//! [`golden_ratio_animated`] and [`random_shift`] of one [`blue_noise_2d`] slice. [`comparison`]
+//! generates every baseline mask a manifest can declare, as value fields.
 //!
 //! # Exact toroidal addition
 //!
@@ -44,15 +50,16 @@ use rand::seq::SliceRandom;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use crate::{EnergyTopology, MaskSpec, SpecError, Volume, generate, tellusim};
+use crate::{EnergyTopology, MaskSpec, Observer, Progress, SpecError, Volume, generate, tellusim};
 
 /// `round(2⁶⁴ / φ)`: the golden-ratio step φ⁻¹ = 0.6180339887… in 0.64 fixed point.
-pub const PHI_INV_FIXED: u64 = 0x9E37_79B9_7F4A_7C16;
+const PHI_INV_FIXED: u64 = 0x9E37_79B9_7F4A_7C16;
 
 /// `round(2¹²⁸ / φ)`: φ⁻¹ in 0.128 fixed point, for [`golden_ratio_rank_shift`].
-pub const PHI_INV_FIXED_128: u128 = 0x9E37_79B9_7F4A_7C15_F39C_C060_5CED_C834;
+const PHI_INV_FIXED_128: u128 = 0x9E37_79B9_7F4A_7C15_F39C_C060_5CED_C834;
 
-/// A baseline mask that [`generate_baseline`] makes. The names match the manifest's kinds.
+/// Which baseline mask a [`BaselineSpec`] asks for ([module docs](self)). The names match the
+/// manifest's kinds.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum BaselineKind {
     /// A seeded random permutation of ranks per slice: white in space and time.
@@ -63,7 +70,7 @@ pub enum BaselineKind {
     /// One 2D blue-noise slice shifted by a random offset per frame, `fract(v + r_z)` on the rank
     /// grid: blue in space, white over time.
     RandomShift2D,
-    /// Tellusim's layered void-and-cluster ([`crate::tellusim`]): each layer seeded from the
+    /// Tellusim's layered void-and-cluster ([module docs](self)): each layer seeded from the
     /// previous one flipped in X and Y.
     TellusimLayered,
 }
@@ -110,49 +117,81 @@ impl BaselineKind {
             _ => MaskSpec::DEFAULT_SIGMA,
         }
     }
+}
 
-    /// `MaskSpec::new(width, height, depth, seed)` with this kind's [`default_sigma`].
-    ///
-    /// [`default_sigma`]: BaselineKind::default_sigma
-    pub fn spec(self, width: u32, height: u32, depth: u32, seed: u64) -> MaskSpec {
-        MaskSpec::new(width, height, depth, seed).with_sigma(self.default_sigma())
+/// Everything that determines a baseline mask, bit for bit: equal specs give identical masks for
+/// every thread count ([`generate_baseline`](crate::generate_baseline)).
+#[derive(Clone, Debug, PartialEq)]
+pub struct BaselineSpec {
+    /// Which baseline.
+    pub kind: BaselineKind,
+    /// The size and seed, and what else `kind` reads (its other fields are ignored):
+    /// [`BaselineKind::White`] nothing; [`BaselineKind::GoldenRatio2D`] and
+    /// [`BaselineKind::RandomShift2D`] make their slice with its σ, density and tolerance
+    /// ([`EnergyTopology::Independent2D`], depth 1); [`BaselineKind::TellusimLayered`] reads
+    /// `sigma_xy` in Tellusim's convention (`exp(−d²/σ²)`) and the density. Every field must be
+    /// in its range ([`MaskSpec::validate`]), read or not.
+    pub mask: MaskSpec,
+}
+
+impl BaselineSpec {
+    /// `kind` at `width × height × depth` pixels from `seed`, with the kind's
+    /// [`default_sigma`](BaselineKind::default_sigma) and [`MaskSpec::new`]'s other defaults.
+    pub fn new(kind: BaselineKind, width: u32, height: u32, depth: u32, seed: u64) -> BaselineSpec {
+        BaselineSpec {
+            kind,
+            mask: MaskSpec::new(width, height, depth, seed).with_sigma(kind.default_sigma()),
+        }
+    }
+
+    /// Checks every field of [`BaselineSpec::mask`] against its documented range
+    /// ([`MaskSpec::validate`]).
+    pub fn validate(&self) -> Result<(), SpecError> {
+        self.mask.validate()
     }
 }
 
-/// Generates the baseline `kind` at the size and seed of `spec` ([module docs](self)).
-///
-/// What each kind reads from `spec` besides its size and seed: [`BaselineKind::White`] nothing;
-/// [`BaselineKind::GoldenRatio2D`] and [`BaselineKind::RandomShift2D`] make their slice with
-/// `spec`'s σ, density and tolerance ([`EnergyTopology::Independent2D`], depth 1);
-/// [`BaselineKind::TellusimLayered`] reads `sigma_xy` in Tellusim's convention and the density,
-/// with ε = [`tellusim::DEFAULT_EPSILON`]. Use [`BaselineKind::spec`] for each kind's defaults.
-///
-/// Deterministic for a given spec whatever the thread count. Errors if `spec` is invalid
-/// ([`MaskSpec::validate`]).
-pub fn generate_baseline(kind: BaselineKind, spec: &MaskSpec) -> Result<Volume, SpecError> {
+/// The baseline mask `spec` describes ([`crate::generate_baseline`]), reporting pixels ranked to
+/// `observer`.
+pub(crate) fn generate_baseline(
+    spec: &BaselineSpec,
+    observer: &mut Observer<'_>,
+) -> Result<Volume, SpecError> {
     spec.validate()?;
+    let (kind, spec) = (spec.kind, &spec.mask);
     let (w, h, d) = (spec.width, spec.height, spec.depth);
     let n = spec.slice_pixels();
+    let total = spec.pixels();
+    observer.report(0, total);
     let ranks: Vec<u32> = match kind {
         BaselineKind::TellusimLayered => {
-            return tellusim::generate_layered(spec, tellusim::DEFAULT_EPSILON);
+            return tellusim::generate_layered(spec, tellusim::DEFAULT_EPSILON, &mut |layers| {
+                observer.report(layers * n, total)
+            });
         }
         BaselineKind::White => {
             let mut rng = stream(spec.seed, Stream::White);
             let mut slice: Vec<u32> = (0..n as u32).collect();
-            (0..d)
-                .flat_map(|_| {
-                    slice.shuffle(&mut rng);
-                    slice.clone()
-                })
-                .collect()
+            let mut ranks = Vec::with_capacity(total as usize);
+            for z in 0..u64::from(d) {
+                slice.shuffle(&mut rng);
+                ranks.extend_from_slice(&slice);
+                observer.report((z + 1) * n, total);
+            }
+            ranks
         }
         BaselineKind::GoldenRatio2D | BaselineKind::RandomShift2D => {
-            let base = generate(&MaskSpec {
-                depth: 1,
-                topology: EnergyTopology::Independent2D,
-                ..spec.clone()
-            })?;
+            // Ranking a pixel of the slice ranks it in every frame.
+            let mut slice_progress = |p: Progress| observer.report(p.done * u64::from(d), total);
+            let slice_observer = Observer::default().with_progress(&mut slice_progress);
+            let base = generate(
+                &MaskSpec {
+                    depth: 1,
+                    topology: EnergyTopology::Independent2D,
+                    ..spec.clone()
+                },
+                slice_observer,
+            )?;
             let shifts: Vec<u64> = if kind == BaselineKind::GoldenRatio2D {
                 (0..u64::from(d))
                     .map(|z| golden_ratio_rank_shift(z, n))
@@ -217,10 +256,13 @@ pub fn white_noise(width: usize, height: usize, depth: usize, seed: u64) -> Vec<
 }
 
 /// One `width × height` slice of 2D blue noise: the values of the one-frame void-and-cluster
-/// mask `generate(&MaskSpec::new(width, height, 1, seed))`, a permutation of
+/// mask of `MaskSpec::new(width, height, 1, seed)` ([`crate::generate`]), a permutation of
 /// `(i + 0.5) / (width · height)`.
+///
+/// # Errors
+/// [`SpecError`] if a size is out of range ([`MaskSpec::validate`]).
 pub fn blue_noise_2d(width: u32, height: u32, seed: u64) -> Result<Vec<f64>, SpecError> {
-    Ok(generate(&MaskSpec::new(width, height, 1, seed))?.values())
+    Ok(generate(&MaskSpec::new(width, height, 1, seed), Observer::default())?.values())
 }
 
 /// `fract(v + frame · φ⁻¹)` exactly in fixed point ([module docs](self)), for `v ∈ [0, 1)` and
@@ -269,11 +311,14 @@ pub struct Baseline {
 /// order: `white_noise`, `blue_2d` (independent 2D blue noise per frame,
 /// [`EnergyTopology::Independent2D`]), `blue_3d` (isotropic 3D blue noise,
 /// [`EnergyTopology::Isotropic3D`]), then `golden_ratio_2d`, `random_shift_2d` and
-/// `tellusim_layered` ([`generate_baseline`] with [`BaselineKind::spec`]'s defaults). The topology
-/// baselines use [`MaskSpec::new`]'s defaults.
+/// `tellusim_layered` (the masks of [`BaselineSpec::new`]). The topology baselines use
+/// [`MaskSpec::new`]'s defaults.
 ///
 /// Cost: dominated by `tellusim_layered` (`O((W·H)² · D)`, about 10 s at 128×128×64) and
 /// `blue_3d`.
+///
+/// # Errors
+/// [`SpecError`] if a size is out of range ([`MaskSpec::validate`]).
 pub fn comparison(
     width: u32,
     height: u32,
@@ -281,6 +326,10 @@ pub fn comparison(
     seed: u64,
 ) -> Result<Vec<Baseline>, SpecError> {
     let spec = |topology| MaskSpec::new(width, height, depth, seed).with_topology(topology);
+    let baseline = |kind| {
+        let spec = BaselineSpec::new(kind, width, height, depth, seed);
+        generate_baseline(&spec, &mut Observer::default())
+    };
     let timed = |name, kind, make: &dyn Fn() -> Result<Volume, SpecError>| {
         let start = Instant::now();
         let volume = make()?;
@@ -295,24 +344,19 @@ pub fn comparison(
         timed(
             BaselineKind::White.name(),
             BaselineKind::White.description(),
-            &|| {
-                let kind = BaselineKind::White;
-                generate_baseline(kind, &kind.spec(width, height, depth, seed))
-            },
+            &|| baseline(BaselineKind::White),
         )?,
         timed(
             "blue_2d",
             "baseline: independent 2D blue noise per frame",
-            &|| generate(&spec(EnergyTopology::Independent2D)),
+            &|| generate(&spec(EnergyTopology::Independent2D), Observer::default()),
         )?,
         timed("blue_3d", "baseline: isotropic 3D blue noise", &|| {
-            generate(&spec(EnergyTopology::Isotropic3D))
+            generate(&spec(EnergyTopology::Isotropic3D), Observer::default())
         })?,
     ];
     for &kind in &BaselineKind::ALL[1..] {
-        set.push(timed(kind.name(), kind.description(), &|| {
-            generate_baseline(kind, &kind.spec(width, height, depth, seed))
-        })?);
+        set.push(timed(kind.name(), kind.description(), &|| baseline(kind))?);
     }
     Ok(set)
 }
@@ -412,10 +456,12 @@ mod tests {
         );
         assert!(set.iter().all(|b| b.values.len() == 96));
         // Frame 0 of the golden-ratio baseline is its 2D blue-noise slice itself.
-        let slice =
-            generate(&MaskSpec::new(8, 4, 1, 5).with_topology(EnergyTopology::Independent2D))
-                .unwrap()
-                .values();
+        let slice = generate(
+            &MaskSpec::new(8, 4, 1, 5).with_topology(EnergyTopology::Independent2D),
+            Observer::default(),
+        )
+        .unwrap()
+        .values();
         assert_eq!(&set[3].values[..32], &slice[..]);
         // Equal values on a second run; only the timings differ.
         let again = comparison(8, 4, 3, 5).unwrap();

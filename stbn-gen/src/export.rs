@@ -510,7 +510,7 @@ mod tests {
     #[test]
     fn a_volume_round_trips_exactly_at_8_bits() {
         // 256 pixels per slice: value (rank + ½) / 256 is exactly a sample centre.
-        let volume = generate(&MaskSpec::new(16, 16, 12, 3)).unwrap();
+        let volume = generate(&MaskSpec::new(16, 16, 12, 3), crate::Observer::default()).unwrap();
         let values = volume.values();
         let field = Field::new(16, 16, 12, &values).unwrap();
         let dir = tempfile::tempdir().unwrap();

@@ -4,8 +4,8 @@ use core::fmt;
 
 /// Which pixel pairs interact in the void-and-cluster energy.
 ///
-/// All three share one engine ([`crate::void_cluster`]); they differ only in the kernel footprint
-/// ([`crate::kernel::EnergyKernel`]).
+/// All three share one engine, void-and-cluster (Ulichney 1993) over the whole volume as in the
+/// paper's §4.1; they differ only in the kernel's footprint.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum EnergyTopology {
     /// The STBN paper's energy (eq. 4): pixels interact when they share a slice (same frame, 2D
@@ -31,7 +31,7 @@ impl EnergyTopology {
     }
 }
 
-/// Everything that determines a scalar mask, bit for bit.
+/// Everything that determines a scalar STBN mask, bit for bit ([`crate::generate`]).
 ///
 /// Two equal specs produce identical [`crate::Volume`]s on every machine and for every thread
 /// count.
@@ -122,6 +122,14 @@ impl MaskSpec {
     /// Number of pixels of the volume.
     pub fn pixels(&self) -> u64 {
         self.slice_pixels() * u64::from(self.depth)
+    }
+
+    /// Distinct `(Δx, Δy, Δz)` offsets (wrapped, the origin included) with a nonzero weight in
+    /// the truncated energy kernel: the footprint every void-and-cluster step updates, so the
+    /// generator's cost per pixel. Panics if the spec is invalid ([`MaskSpec::validate`]).
+    pub fn kernel_taps(&self) -> usize {
+        self.validate().expect("a valid spec");
+        crate::kernel::EnergyKernel::new(self).taps()
     }
 
     /// Checks every field against its documented range.

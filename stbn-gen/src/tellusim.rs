@@ -57,17 +57,17 @@ use rand_chacha::ChaCha8Rng;
 use crate::{MaskSpec, SpecError, Volume};
 
 /// Tellusim's recommended σ (pixels, their convention `exp(−d²/σ²)`) for 64×64×32 sequences.
-pub const DEFAULT_SIGMA: f64 = 1.6;
+pub(crate) const DEFAULT_SIGMA: f64 = 1.6;
 
 /// Tellusim's weight ε of the kernel's `ε / (1 + d²)` tail.
-pub const DEFAULT_EPSILON: f64 = 0.01;
+pub(crate) const DEFAULT_EPSILON: f64 = 0.01;
 
 /// The on bit of an energy word; the low 31 bits hold the energy.
 const ON: u32 = 1 << 31;
 
 /// The kernel weight at squared distance `distance_squared` (pixels²):
 /// `exp(−d²/σ²) + ε / (1 + d²)`, dimensionless, `1 + ε` at `d = 0`.
-pub fn kernel_weight(distance_squared: f64, sigma: f64, epsilon: f64) -> f64 {
+fn kernel_weight(distance_squared: f64, sigma: f64, epsilon: f64) -> f64 {
     (-distance_squared / (sigma * sigma)).exp() + epsilon / (1.0 + distance_squared)
 }
 
@@ -78,10 +78,15 @@ pub fn kernel_weight(distance_squared: f64, sigma: f64, epsilon: f64) -> f64 {
 /// `spec.sigma_z`, `spec.topology` and `spec.kernel_tolerance` are not used. Deterministic:
 /// the layers are generated one after the other, and within a layer the only concurrency is
 /// ranking the initial pattern beside the void filling, which share nothing mutable.
+/// `layers_done` is called with the number of layers ranked after each layer.
 ///
 /// Errors if `spec` is invalid ([`MaskSpec::validate`]). Panics if `epsilon` is negative or not
 /// finite.
-pub fn generate_layered(spec: &MaskSpec, epsilon: f64) -> Result<Volume, SpecError> {
+pub(crate) fn generate_layered(
+    spec: &MaskSpec,
+    epsilon: f64,
+    layers_done: &mut dyn FnMut(u64),
+) -> Result<Volume, SpecError> {
     spec.validate()?;
     assert!(
         epsilon.is_finite() && epsilon >= 0.0,
@@ -113,6 +118,7 @@ pub fn generate_layered(spec: &MaskSpec, epsilon: f64) -> Result<Volume, SpecErr
             *on = slice[n - 1 - i] as usize >= n - ones;
         }
         ranks.extend_from_slice(&slice);
+        layers_done(u64::from(layer) + 1);
     }
     Ok(Volume::from_global_ranks(
         spec.width,
@@ -365,23 +371,23 @@ mod tests {
     #[test]
     fn every_layer_is_a_permutation_and_the_seed_decides() {
         for (w, h, d) in [(1, 1, 2), (2, 3, 3), (16, 16, 4), (13, 7, 3)] {
-            let volume = generate_layered(&spec(w, h, d, 3), DEFAULT_EPSILON).unwrap();
+            let volume = generate_layered(&spec(w, h, d, 3), DEFAULT_EPSILON, &mut |_| {}).unwrap();
             for z in 0..d {
                 let mut slice = volume.slice(z).to_vec();
                 slice.sort_unstable();
                 assert!(slice.iter().enumerate().all(|(i, &r)| r as usize == i));
             }
         }
-        let a = generate_layered(&spec(16, 16, 3, 1), DEFAULT_EPSILON).unwrap();
+        let a = generate_layered(&spec(16, 16, 3, 1), DEFAULT_EPSILON, &mut |_| {}).unwrap();
         assert_eq!(
             a,
-            generate_layered(&spec(16, 16, 3, 1), DEFAULT_EPSILON).unwrap()
+            generate_layered(&spec(16, 16, 3, 1), DEFAULT_EPSILON, &mut |_| {}).unwrap()
         );
         assert_ne!(
             a,
-            generate_layered(&spec(16, 16, 3, 2), DEFAULT_EPSILON).unwrap()
+            generate_layered(&spec(16, 16, 3, 2), DEFAULT_EPSILON, &mut |_| {}).unwrap()
         );
-        assert!(generate_layered(&spec(0, 16, 3, 1), DEFAULT_EPSILON).is_err());
+        assert!(generate_layered(&spec(0, 16, 3, 1), DEFAULT_EPSILON, &mut |_| {}).is_err());
     }
 
     #[test]
@@ -392,7 +398,7 @@ mod tests {
         let n = w * h;
         let s = spec(w as u32, h as u32, 4, 9);
         let ones = (s.initial_density * n as f64).round() as usize;
-        let volume = generate_layered(&s, DEFAULT_EPSILON).unwrap();
+        let volume = generate_layered(&s, DEFAULT_EPSILON, &mut |_| {}).unwrap();
         for z in 0..3 {
             let (this, next) = (volume.slice(z), volume.slice(z + 1));
             for i in 0..n {

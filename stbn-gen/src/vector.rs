@@ -478,9 +478,10 @@ pub(crate) fn arranged_start(
     let n = width as usize * height as usize;
     let ranks = match arrangement {
         InitialArrangement::Random => None,
-        InitialArrangement::ScalarStbn => {
-            Some(crate::generate(&MaskSpec::new(width, height, depth, seed))?)
-        }
+        InitialArrangement::ScalarStbn => Some(crate::generate(
+            &MaskSpec::new(width, height, depth, seed),
+            crate::Observer::default(),
+        )?),
     };
     let mut values = vec![0.0f32; n * depth as usize * dims];
     let sampler = space.stratified_sampler();

@@ -25,6 +25,7 @@ use rand_chacha::ChaCha8Rng;
 
 use crate::extremum::{Extremum, ExtremumTree, ON_BIT};
 use crate::kernel::{EnergyKernel, TapVisitor, Weight};
+use crate::observe::Observer;
 use crate::spec::MaskSpec;
 
 /// Volumes of at least this many pixels (4 MiB of energy words) load each splat's footprint
@@ -33,15 +34,6 @@ use crate::spec::MaskSpec;
 /// energies mostly stay in cache; at 128×128×64 it measured from 4% slower to 17% faster with the
 /// neighbours' load, at 128×128×128 14% faster and at 256×256×128 21–26% faster.
 const TOUCH_FIRST_PIXELS: usize = 1 << 20;
-
-/// Progress of one generation: `ranked` of `pixels` pixels have their rank (phase 1 reports 0).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Progress {
-    /// Pixels ranked so far.
-    pub ranked: u64,
-    /// Pixels of the volume.
-    pub pixels: u64,
-}
 
 /// Energy keys and on/off state of every pixel.
 #[derive(Clone)]
@@ -243,8 +235,9 @@ fn seeded_start(spec: &MaskSpec) -> (Vec<u32>, Vec<u32>) {
 
 /// Ranks every pixel of the volume `0..N` in void-and-cluster order (global, not per slice).
 ///
-/// `spec` must be valid ([`MaskSpec::validate`]). `progress` is called every few thousand ranks.
-pub fn rank_pixels(spec: &MaskSpec, progress: &mut dyn FnMut(Progress)) -> Vec<u32> {
+/// `spec` must be valid ([`MaskSpec::validate`]). `observer` hears pixels ranked of the volume's
+/// every few thousand ranks.
+pub(crate) fn rank_pixels(spec: &MaskSpec, observer: &mut Observer<'_>) -> Vec<u32> {
     let kernel = EnergyKernel::new(spec);
     let n = spec.pixels() as usize;
     let (priorities, initial) = seeded_start(spec);
@@ -252,12 +245,7 @@ pub fn rank_pixels(spec: &MaskSpec, progress: &mut dyn FnMut(Progress)) -> Vec<u
     // Phases 2b and 3 append each filled void (sequential stores) instead of a random store per
     // step; the ranks are scattered once at the end.
     let mut fill_order: Vec<u32> = Vec::new();
-    let mut report = |ranked: usize| {
-        progress(Progress {
-            ranked: ranked as u64,
-            pixels: n as u64,
-        })
-    };
+    let mut report = |ranked: usize| observer.report(ranked as u64, n as u64);
 
     // Phase 1: initial pattern, then move clusters into voids until stable.
     for &i in &initial {
@@ -335,7 +323,7 @@ mod tests {
             MaskSpec::new(8, 8, 4, 4).with_sigma(0.05),
             MaskSpec::new(8, 8, 4, 5).with_sigma(1000.0),
         ] {
-            let mut ranks = rank_pixels(&spec, &mut |_| {});
+            let mut ranks = rank_pixels(&spec, &mut Observer::default());
             ranks.sort_unstable();
             assert!(
                 ranks.iter().enumerate().all(|(i, &r)| r as usize == i),
@@ -365,7 +353,10 @@ mod tests {
             (3, 1, 200),
         ] {
             let spec = MaskSpec::new(w, h, d, 5);
-            assert_permutation(&rank_pixels(&spec, &mut |_| {}), &format!("{w}x{h}x{d}"));
+            assert_permutation(
+                &rank_pixels(&spec, &mut Observer::default()),
+                &format!("{w}x{h}x{d}"),
+            );
         }
     }
 
@@ -374,7 +365,10 @@ mod tests {
         // At σ 0.05 every off-pixel energy ties at zero, so the order is the tie-break alone. An
         // index-order tie-break would rank pixels by position; the seeded permutation must not.
         let (w, h, d) = (64u32, 64u32, 4u32);
-        let ranks = rank_pixels(&MaskSpec::new(w, h, d, 3).with_sigma(0.05), &mut |_| {});
+        let ranks = rank_pixels(
+            &MaskSpec::new(w, h, d, 3).with_sigma(0.05),
+            &mut Observer::default(),
+        );
         let n = ranks.len() as f64;
         let mean = |pick: &dyn Fn(usize) -> bool| {
             let chosen: Vec<f64> = (0..ranks.len())
@@ -463,7 +457,7 @@ mod tests {
             kernel_tolerance: 1e-3,
             ..MaskSpec::new(32, 32, 16, 2026)
         };
-        let ranks = rank_pixels(&spec, &mut |_| {});
+        let ranks = rank_pixels(&spec, &mut Observer::default());
         let expected = pinned
             .iter()
             .find(|(version, _)| *version == crate::GENERATOR_VERSION)
@@ -484,7 +478,7 @@ mod tests {
                 .num_threads(threads)
                 .build()
                 .unwrap()
-                .install(|| rank_pixels(&spec, &mut |_| {}))
+                .install(|| rank_pixels(&spec, &mut Observer::default()))
         };
         let one = with_threads(1);
         assert_eq!(one, with_threads(2));
@@ -494,9 +488,44 @@ mod tests {
     #[test]
     fn same_seed_same_ranks_other_seed_other_ranks() {
         let spec = MaskSpec::new(16, 16, 4, 11);
-        let a = rank_pixels(&spec, &mut |_| {});
-        assert_eq!(a, rank_pixels(&spec, &mut |_| {}));
-        let b = rank_pixels(&MaskSpec { seed: 12, ..spec }, &mut |_| {});
+        let a = rank_pixels(&spec, &mut Observer::default());
+        assert_eq!(a, rank_pixels(&spec, &mut Observer::default()));
+        let b = rank_pixels(&MaskSpec { seed: 12, ..spec }, &mut Observer::default());
         assert_ne!(a, b);
+    }
+
+    #[test]
+    fn reranking_slices_costs_almost_no_blueness() {
+        use crate::Volume;
+        use crate::analysis::{Field, spatial_low_band, temporal_low_band};
+        let (w, h, d) = (64, 64, 32);
+        let bands = |values: &[f64]| {
+            let field = Field::new(w as usize, h as usize, d as usize, values).unwrap();
+            (
+                spatial_low_band(&field).unwrap(),
+                temporal_low_band(&field).unwrap(),
+            )
+        };
+        let ranks = rank_pixels(&MaskSpec::new(w, h, d, 7), &mut Observer::default());
+        let n = ranks.len() as f64;
+        let global: Vec<f64> = ranks.iter().map(|&r| f64::from(r) / n).collect();
+        let reranked = Volume::from_global_ranks(w, h, d, &ranks).values();
+        let (global_spatial, global_temporal) = bands(&global);
+        let (spatial, temporal) = bands(&reranked);
+        eprintln!(
+            "global ranks: spatial {global_spatial:.6}, temporal {global_temporal:.6}; \
+             re-ranked: spatial {spatial:.6}, temporal {temporal:.6}"
+        );
+        // Measured 0.044762 before and 0.044779 after: every slice takes an almost even share of
+        // each global rank range, so re-ranking hardly moves any value.
+        assert!(global_temporal < 0.15, "{global_temporal}");
+        assert!(
+            (temporal - global_temporal).abs() < 0.1 * global_temporal,
+            "{global_temporal} → {temporal}"
+        );
+        assert!(
+            (spatial - global_spatial).abs() < 0.1 * global_spatial,
+            "{global_spatial} → {spatial}"
+        );
     }
 }

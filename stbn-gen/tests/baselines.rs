@@ -1,17 +1,18 @@
-//! The baseline masks of `stbn_gen::baselines::generate_baseline`: shape, determinism, the exact
+//! The baseline masks of `stbn_gen::generate_baseline`: shape, determinism, progress, the exact
 //! golden-ratio animation, and the spectra each kind is known for.
 //!
 //! `cargo test --release -p stbn-gen --test baselines -- --nocapture` prints the measured
 //! low-band figures.
 
 use stbn_gen::analysis::{Field, spatial_low_band, temporal_low_band};
-use stbn_gen::baselines::{
-    BaselineKind, generate_baseline, golden_ratio_rank_shift, golden_ratio_shift,
+use stbn_gen::baselines::{golden_ratio_rank_shift, golden_ratio_shift};
+use stbn_gen::{
+    BaselineKind, BaselineSpec, EnergyTopology, MaskSpec, Observer, Progress, Volume,
+    generate_baseline,
 };
-use stbn_gen::{EnergyTopology, MaskSpec, Volume};
 
 fn baseline(kind: BaselineKind, w: u32, h: u32, d: u32, seed: u64) -> Volume {
-    generate_baseline(kind, &kind.spec(w, h, d, seed)).unwrap()
+    generate_baseline(&BaselineSpec::new(kind, w, h, d, seed), Observer::default()).unwrap()
 }
 
 /// `(spatial, temporal)` low bands of `volume` (white noise = 1).
@@ -28,7 +29,7 @@ fn bands(volume: &Volume) -> (f64, f64) {
 /// The 2D slice the animated baselines rotate: void-and-cluster, Independent2D, depth 1.
 fn base_slice(w: u32, h: u32, seed: u64) -> Volume {
     let spec = MaskSpec::new(w, h, 1, seed).with_topology(EnergyTopology::Independent2D);
-    stbn_gen::generate(&spec).unwrap()
+    stbn_gen::generate(&spec, Observer::default()).unwrap()
 }
 
 #[test]
@@ -65,7 +66,14 @@ fn every_baseline_is_a_permutation_per_slice_and_thread_count_independent() {
     }
     let bad = MaskSpec::new(0, 4, 4, 1);
     for kind in BaselineKind::ALL {
-        assert!(generate_baseline(kind, &bad).is_err(), "{kind:?}");
+        let spec = BaselineSpec {
+            kind,
+            mask: bad.clone(),
+        };
+        assert!(
+            generate_baseline(&spec, Observer::default()).is_err(),
+            "{kind:?}"
+        );
     }
 }
 
@@ -154,4 +162,24 @@ fn tellusim_layered_is_blue_per_slice_and_about_white_over_time() {
     // with frame z at the mirrored pixel, not at p, so each pixel's sequence is about as white as
     // independent 2D blue noise's (0.99–1.01), far from STBN's 0.045.
     assert!((0.9..1.25).contains(&temporal), "{temporal}");
+}
+
+#[test]
+fn progress_counts_pixels_ranked_for_every_kind() {
+    for kind in BaselineKind::ALL {
+        let spec = BaselineSpec::new(kind, 16, 12, 5, 3);
+        let mut reports = Vec::new();
+        let mut progress = |p: Progress| reports.push(p);
+        let observer = Observer::default().with_progress(&mut progress);
+        let volume = generate_baseline(&spec, observer).unwrap();
+        let total = 16 * 12 * 5;
+        assert!(reports.iter().all(|p| p.total == total), "{kind:?}");
+        assert_eq!(reports.first().map(|p| p.done), Some(0), "{kind:?}");
+        assert_eq!(reports.last().map(|p| p.done), Some(total), "{kind:?}");
+        assert!(
+            reports.windows(2).all(|pair| pair[0].done <= pair[1].done),
+            "{kind:?}: {reports:?}"
+        );
+        assert_eq!(volume, baseline(kind, 16, 12, 5, 3), "{kind:?}");
+    }
 }

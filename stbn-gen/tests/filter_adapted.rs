@@ -1,14 +1,31 @@
-//! Filter-adapted masks (`stbn_gen::filter_adapted`): exact stratification, exact incremental
-//! energies, determinism, and that they beat STBN on the filtered error they are made for.
+//! Filter-adapted masks (`generate_filter_adapted`, `generate_filter_adapted_vector`): exact
+//! stratification, determinism, traces and progress, and that they beat STBN on the filtered
+//! error they are made for. The optimiser's exact incremental energies are checked by its unit
+//! tests.
 
 use stbn_gen::analysis::{Field, FilteredErrorOptions, filtered_error};
-use stbn_gen::filter_adapted::testing::{scalar_optimizer, vector_optimizer};
-use stbn_gen::filter_adapted::{
-    FilterAdaptedSpec, FilterAdaptedSpecError, FilterCombination, SpatialFilter, TemporalFilter,
-    ValueKernel, generate_filter_adapted, generate_filter_adapted_vector,
-    generate_filter_adapted_with_trace,
+use stbn_gen::{
+    EnergyTrace, FilterAdaptedSpec, FilterAdaptedSpecError, FilterAdaptedVectorSpec,
+    FilterCombination, InitialArrangement, MaskSpec, Observer, Progress, SampleSpace,
+    SpatialFilter, TemporalFilter, ValueKernel, VectorVolume, Volume, generate_filter_adapted,
+    generate_filter_adapted_vector,
 };
-use stbn_gen::{InitialArrangement, MaskSpec, SampleSpace, Volume};
+
+/// The scalar mask of `spec` and its energy trace.
+fn with_trace(spec: &FilterAdaptedSpec) -> (Volume, EnergyTrace) {
+    let mut trace = EnergyTrace::default();
+    let observer = Observer::default().with_trace(&mut trace);
+    let volume = generate_filter_adapted(spec, observer).unwrap();
+    (volume, trace)
+}
+
+/// The vector mask of `spec` and its energy trace.
+fn vector_with_trace(spec: &FilterAdaptedVectorSpec) -> (VectorVolume, EnergyTrace) {
+    let mut trace = EnergyTrace::default();
+    let observer = Observer::default().with_trace(&mut trace);
+    let volume = generate_filter_adapted_vector(spec, observer).unwrap();
+    (volume, trace)
+}
 
 /// Every frame of `volume` is a permutation of `0..W·H`.
 fn assert_permutations(volume: &Volume) {
@@ -24,188 +41,6 @@ fn assert_permutations(volume: &Volume) {
             volume.depth()
         );
     }
-}
-
-/// A seeded permutation of `0..n` per frame (a simple LCG shuffle: independent of the crate).
-fn shuffled(n: usize, depth: usize, seed: u64) -> Vec<u32> {
-    let mut state = seed
-        .wrapping_mul(6364136223846793005)
-        .wrapping_add(1442695040888963407);
-    let mut next = move || {
-        state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (state >> 33) as usize
-    };
-    let mut out = Vec::with_capacity(n * depth);
-    for _ in 0..depth {
-        let mut frame: Vec<u32> = (0..n as u32).collect();
-        for i in (1..n).rev() {
-            frame.swap(i, next() % (i + 1));
-        }
-        out.extend(frame);
-    }
-    out
-}
-
-/// The filter configurations the exactness tests cover.
-fn configurations() -> Vec<(SpatialFilter, TemporalFilter, FilterCombination)> {
-    vec![
-        (
-            SpatialFilter::DEFAULT,
-            TemporalFilter::DEFAULT,
-            FilterCombination::Product,
-        ),
-        (
-            SpatialFilter::Box { size: 3 },
-            TemporalFilter::ExponentialHistory {
-                alpha: 0.2,
-                beta: 0.1,
-            },
-            FilterCombination::Separate {
-                spatial_weight: 0.6,
-            },
-        ),
-        (
-            SpatialFilter::Binomial { order: 4 },
-            TemporalFilter::Gaussian { sigma: 1.5 },
-            FilterCombination::Product,
-        ),
-        (
-            SpatialFilter::Gaussian { sigma: 0.8 },
-            TemporalFilter::Box { size: 4 },
-            FilterCombination::Separate {
-                spatial_weight: 1.0,
-            },
-        ),
-    ]
-}
-
-#[test]
-fn deltas_are_exact_and_the_running_energy_matches_a_recomputation() {
-    // 28×24 is two tiles wide at the default filter's reach (6 px): passes exercise the tiled
-    // path with halos; 7×5 wraps a single tile around both axes.
-    for (w, h, d) in [(28, 24, 4), (7, 5, 3)] {
-        for (spatial, temporal, combination) in configurations() {
-            for kernel in [ValueKernel::Distance, ValueKernel::Product] {
-                let spec = FilterAdaptedSpec::new(w, h, d, 5)
-                    .with_filters(spatial, temporal, combination)
-                    .with_value_kernel(kernel);
-                let n = (w * h) as usize;
-                let mut o = scalar_optimizer(&spec, shuffled(n, d as usize, 9), None);
-                let what = format!("{w}×{h}×{d} {spatial} / {temporal} / {combination} {kernel:?}");
-                let start = o.recompute_energy();
-                let running = |o: &stbn_gen::filter_adapted::testing::TestOptimizer| {
-                    // The distance energy runs relative to the start.
-                    match kernel {
-                        ValueKernel::Distance => start + o.energy(),
-                        ValueKernel::Product => o.energy(),
-                    }
-                };
-                assert_eq!(running(&o), start, "{what}");
-                let mut state = 12345u64;
-                let mut rand = |m: u32| {
-                    state = state
-                        .wrapping_mul(2862933555777941757)
-                        .wrapping_add(3037000493);
-                    ((state >> 33) % u64::from(m)) as u32
-                };
-                for _ in 0..40 {
-                    let z = rand(d);
-                    let (a, b) = ((rand(w), rand(h)), (rand(w), rand(h)));
-                    let predicted = o.swap_delta(z, a, b);
-                    let before = o.recompute_energy();
-                    // Apply the swap by hand when it would be rejected, to check positive
-                    // deltas too: swapping back restores the energy.
-                    match o.try_swap(z, a, b) {
-                        Some(delta) => {
-                            assert_eq!(delta, predicted, "{what}");
-                            assert_eq!(o.recompute_energy(), before + delta, "{what}");
-                        }
-                        None => assert!(predicted >= 0, "{what}: {predicted}"),
-                    }
-                    assert_eq!(running(&o), o.recompute_energy(), "{what}");
-                }
-                assert!(o.field_is_exact(), "{what}");
-                for _ in 0..2 {
-                    o.run_pass(1.0);
-                    assert_eq!(running(&o), o.recompute_energy(), "{what}: after a pass");
-                    assert!(o.field_is_exact(), "{what}: after a pass");
-                }
-                assert!(running(&o) < start, "{what}: no swap lowered the energy");
-            }
-        }
-    }
-}
-
-#[test]
-fn vector_deltas_are_exact() {
-    for space in [
-        SampleSpace::Vec { dims: 2 },
-        SampleSpace::Vec { dims: 4 },
-        SampleSpace::UnitVec1,
-        SampleSpace::UnitVec3,
-    ] {
-        for kernel in [ValueKernel::Distance, ValueKernel::Product] {
-            let spec = FilterAdaptedSpec::new(24, 24, 2, 8).with_value_kernel(kernel);
-            // Screening only matters to the distance kernel.
-            let screens: &[Option<f64>] = match kernel {
-                ValueKernel::Distance => &[None, Some(1e-3)],
-                ValueKernel::Product => &[None],
-            };
-            for &screen in screens {
-                let mut o = vector_optimizer(&spec, &space, screen);
-                let what = format!("{} {kernel:?} {screen:?}", space.name());
-                let start = o.recompute_energy();
-                let running = |o: &stbn_gen::filter_adapted::testing::TestOptimizer| match kernel {
-                    ValueKernel::Distance => start + o.energy(),
-                    ValueKernel::Product => o.energy(),
-                };
-                let mut state = 99u64;
-                let mut rand = |m: u32| {
-                    state = state
-                        .wrapping_mul(2862933555777941757)
-                        .wrapping_add(3037000493);
-                    ((state >> 33) % u64::from(m)) as u32
-                };
-                for _ in 0..12 {
-                    let z = rand(2);
-                    let (a, b) = ((rand(24), rand(24)), (rand(24), rand(24)));
-                    let predicted = o.swap_delta(z, a, b);
-                    if let Some(delta) = o.try_swap(z, a, b) {
-                        assert_eq!(delta, predicted, "{what}");
-                    }
-                    assert_eq!(running(&o), o.recompute_energy(), "{what}");
-                }
-                o.run_pass(1.0);
-                assert_eq!(running(&o), o.recompute_energy(), "{what}: after a pass");
-                assert!(o.field_is_exact(), "{what}");
-                assert!(running(&o) < start, "{what}");
-            }
-        }
-    }
-}
-
-#[test]
-fn screening_only_skips_proposals() {
-    // With screening, every kept swap still has its exact delta (the running energy matches),
-    // and fewer proposals are fully evaluated than without.
-    let spec = FilterAdaptedSpec::new(32, 32, 6, 2);
-    let ranks = shuffled(32 * 32, 6, 4);
-    let mut screened = scalar_optimizer(&spec, ranks.clone(), Some(1e-3));
-    let mut full = scalar_optimizer(&spec, ranks, None);
-    let start = screened.recompute_energy();
-    screened.run_pass(1.0);
-    full.run_pass(1.0);
-    assert_eq!(start + screened.energy(), screened.recompute_energy());
-    let (attempted, evaluated, accepted) = screened.counts();
-    let (all, all_evaluated, _) = full.counts();
-    assert_eq!(attempted, all);
-    assert!(
-        evaluated < all_evaluated / 2,
-        "{evaluated} of {all_evaluated}"
-    );
-    assert!(accepted > 0 && accepted <= evaluated);
 }
 
 #[test]
@@ -224,7 +59,7 @@ fn every_frame_stays_a_permutation() {
                     .with_swaps_per_pixel(2.5)
                     .with_value_kernel(kernel);
                 spec.initial_arrangement = arrangement;
-                let volume = generate_filter_adapted(&spec).unwrap();
+                let volume = generate_filter_adapted(&spec, Observer::default()).unwrap();
                 assert_eq!((volume.width(), volume.height(), volume.depth()), (w, h, d));
                 assert_permutations(&volume);
             }
@@ -265,7 +100,7 @@ fn extreme_filters_terminate_with_valid_masks() {
             let spec = FilterAdaptedSpec::new(12, 10, 6, 1)
                 .with_filters(spatial, temporal, combination)
                 .with_swaps_per_pixel(2.0);
-            let (volume, trace) = generate_filter_adapted_with_trace(&spec, &mut |_| {}).unwrap();
+            let (volume, trace) = with_trace(&spec);
             assert_permutations(&volume);
             assert!(
                 trace.points.iter().all(|p| p.energy.is_finite()),
@@ -282,12 +117,14 @@ fn energy_never_rises_and_falls_over_a_run() {
             .with_swaps_per_pixel(6.0)
             .with_value_kernel(kernel);
         spec.initial_arrangement = InitialArrangement::Random;
-        let mut reports = 0;
-        let (_, trace) = generate_filter_adapted_with_trace(&spec, &mut |p| {
-            reports += 1;
-            assert_eq!((p.passes_done, p.passes), (reports, 6));
-        })
-        .unwrap();
+        let mut reports = Vec::new();
+        let mut progress = |p: Progress| reports.push((p.done, p.total));
+        let mut trace = EnergyTrace::default();
+        let observer = Observer::default()
+            .with_progress(&mut progress)
+            .with_trace(&mut trace);
+        generate_filter_adapted(&spec, observer).unwrap();
+        assert_eq!(reports, (0..=6).map(|pass| (pass, 6)).collect::<Vec<_>>());
         assert_eq!(trace.points.len(), 7);
         for pair in trace.points.windows(2) {
             assert!(pair[1].energy <= pair[0].energy, "{kernel:?}: {pair:?}");
@@ -302,19 +139,13 @@ fn energy_never_rises_and_falls_over_a_run() {
 #[test]
 fn identical_for_one_and_two_threads() {
     let spec = FilterAdaptedSpec::new(48, 40, 8, 21).with_swaps_per_pixel(3.0);
-    let space = SampleSpace::Vec { dims: 2 };
-    let vector_spec = spec.clone();
+    let vector_spec = spec.clone().with_space(SampleSpace::Vec { dims: 2 });
     let run = |threads: usize| {
         rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()
             .unwrap()
-            .install(|| {
-                let scalar = generate_filter_adapted_with_trace(&spec, &mut |_| {}).unwrap();
-                let vector =
-                    generate_filter_adapted_vector(&vector_spec, &space, &mut |_| {}).unwrap();
-                (scalar, vector)
-            })
+            .install(|| (with_trace(&spec), vector_with_trace(&vector_spec)))
     };
     let one = run(1);
     let two = run(2);
@@ -323,10 +154,13 @@ fn identical_for_one_and_two_threads() {
     assert!(one.1.0 == two.1.0, "vector masks differ");
     assert!(one.1.1 == two.1.1, "vector traces differ");
     // A different seed gives a different mask.
-    let other = generate_filter_adapted(&FilterAdaptedSpec {
-        seed: 22,
-        ..spec.clone()
-    })
+    let other = generate_filter_adapted(
+        &FilterAdaptedSpec {
+            seed: 22,
+            ..spec.clone()
+        },
+        Observer::default(),
+    )
     .unwrap();
     assert!(other != one.0.0);
 }
@@ -343,14 +177,18 @@ fn filtered_last(volume: &Volume) -> f64 {
 
 #[test]
 fn beats_stbn_on_the_filtered_error_at_32x32x16() {
-    let stbn = stbn_gen::generate(&MaskSpec::new(32, 32, 16, 7)).unwrap();
+    let stbn = stbn_gen::generate(&MaskSpec::new(32, 32, 16, 7), Observer::default()).unwrap();
     let spec = FilterAdaptedSpec::new(32, 32, 16, 7).with_swaps_per_pixel(32.0);
-    let adapted = generate_filter_adapted(&spec).unwrap();
+    let adapted = generate_filter_adapted(&spec, Observer::default()).unwrap();
     let (s, a) = (filtered_last(&stbn), filtered_last(&adapted));
     eprintln!("32×32×16 filtered error at the last frame: STBN {s:.5}, filter-adapted {a:.5}");
     assert!(a < 0.95 * s, "filter-adapted {a} vs STBN {s}");
     // The product (linear) kernel optimises the filtered values, not the thresholded error.
-    let product = generate_filter_adapted(&spec.with_value_kernel(ValueKernel::Product)).unwrap();
+    let product = generate_filter_adapted(
+        &spec.with_value_kernel(ValueKernel::Product),
+        Observer::default(),
+    )
+    .unwrap();
     eprintln!("  product kernel: {:.5}", filtered_last(&product));
 }
 
@@ -381,9 +219,9 @@ fn vector_masks_keep_each_frames_stratified_set() {
             let spec = FilterAdaptedSpec::new(16, 12, 4, 3)
                 .with_value_kernel(kernel)
                 .with_swaps_per_pixel(0.0);
-            let (start, _) = generate_filter_adapted_vector(&spec, &space, &mut |_| {}).unwrap();
+            let (start, _) = vector_with_trace(&spec.clone().with_space(space.clone()));
             let spec = spec.with_swaps_per_pixel(4.0);
-            let (end, trace) = generate_filter_adapted_vector(&spec, &space, &mut |_| {}).unwrap();
+            let (end, trace) = vector_with_trace(&spec.with_space(space.clone()));
             let what = format!("{} {kernel:?}", space.name());
             let frame = 16 * 12 * space.dims();
             assert_eq!((end.width(), end.height(), end.depth()), (16, 12, 4));
@@ -486,12 +324,15 @@ fn invalid_specs_name_their_field() {
     for (spec, needle) in cases {
         let message = spec.validate().unwrap_err().to_string();
         assert!(message.contains(needle), "{message:?} lacks {needle:?}");
-        assert!(generate_filter_adapted(&spec).is_err());
+        assert!(generate_filter_adapted(&spec, Observer::default()).is_err());
     }
     // Vector masks need a valid space.
     assert_eq!(
-        generate_filter_adapted_vector(&base, &SampleSpace::Vec { dims: 5 }, &mut |_| {})
-            .unwrap_err(),
+        generate_filter_adapted_vector(
+            &base.with_space(SampleSpace::Vec { dims: 5 }),
+            Observer::default()
+        )
+        .unwrap_err(),
         FilterAdaptedSpecError::InvalidDims(5)
     );
 }

@@ -10,19 +10,21 @@ use stbn_gen::analysis::{
     Convergence, ConvergenceOptions, Field, FilteredErrorOptions, Integrand, convergence,
     filtered_error, gaussian_weights, spatial_low_band, temporal_low_band,
 };
-use stbn_gen::baselines::{BaselineKind, generate_baseline, white_noise};
-use stbn_gen::{EnergyTopology, MaskSpec};
+use stbn_gen::baselines::white_noise;
+use stbn_gen::{BaselineKind, BaselineSpec, EnergyTopology, MaskSpec, Observer, generate_baseline};
 
 /// The mask of `topology` at `w × h × d`, seed 7, as values.
 fn mask(w: u32, h: u32, d: u32, topology: EnergyTopology) -> Vec<f64> {
-    stbn_gen::generate(&MaskSpec::new(w, h, d, 7).with_topology(topology))
+    let spec = MaskSpec::new(w, h, d, 7).with_topology(topology);
+    stbn_gen::generate(&spec, Observer::default())
         .unwrap()
         .values()
 }
 
 /// The baseline `kind` at `w × h × d` with its default spec from `seed`, as values.
 fn baseline(kind: BaselineKind, w: u32, h: u32, d: u32, seed: u64) -> Vec<f64> {
-    generate_baseline(kind, &kind.spec(w, h, d, seed))
+    let spec = BaselineSpec::new(kind, w, h, d, seed);
+    generate_baseline(&spec, Observer::default())
         .unwrap()
         .values()
 }
@@ -188,7 +190,7 @@ fn golden_ratio_baseline_is_blue_in_space_and_low_discrepancy_in_time() {
 
 /// The 128×128×64 comparison: low bands, filtered error and convergence from frames 0 and D/3
 /// for every field (STBN, Independent2D and the four baseline kinds of
-/// [`stbn_gen::baselines::generate_baseline`]), printed (`-- --nocapture`; BENCHMARKS.md quotes
+/// [`stbn_gen::generate_baseline`]), printed (`-- --nocapture`; BENCHMARKS.md quotes
 /// it), and the quality targets asserted:
 /// STBN's last-frame filtered error ≤ 0.0052 and below independent 2D blue noise's, STBN's Monte
 /// Carlo error well below independent 2D blue noise's, and a start at frame D/3 converging like
@@ -278,14 +280,14 @@ fn vec2_pairs_integrate_2d_functions_better_than_white_pairs() {
         .map(|s| s.parse().expect("STBN_QUALITY_SIZE is a number"))
         .unwrap_or(32);
     let (w, h, d) = (size, size, size / 2);
-    let (vector, _) = generate_vector(&VectorSpec::new(
+    let spec = VectorSpec::new(
         w as u32,
         h as u32,
         d as u32,
         7,
         SampleSpace::Vec { dims: 2 },
-    ))
-    .unwrap();
+    );
+    let vector = generate_vector(&spec, Observer::default()).unwrap();
     let component = |c: usize| -> Vec<f64> {
         vector
             .values()

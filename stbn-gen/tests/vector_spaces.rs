@@ -10,13 +10,22 @@ use std::sync::Arc;
 use rand::RngExt;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use stbn_gen::importance::PixelProblem;
-use stbn_gen::{ImageError, ImagePdf, SampleSpace, VectorSpec, generate_vector};
+use stbn_gen::{
+    ImageError, ImagePdf, InitialArrangement, Observer, PixelProblem, SampleSpace, VectorSpec,
+    generate_vector,
+};
 
-/// One slice of `n` values of `space` as the generator starts it.
+/// One slice of `n` values of `space` as the generator starts it: the unoptimised `n × 1 × 1`
+/// mask from `seed`, in the stratified set's own order.
 fn stratified(space: &SampleSpace, n: usize, seed: u64) -> Vec<f32> {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    space.stratified_sampler().slice(n, &mut rng)
+    let spec = VectorSpec {
+        initial_arrangement: InitialArrangement::Random,
+        ..VectorSpec::new(n as u32, 1, 1, seed, space.clone()).unoptimised()
+    };
+    generate_vector(&spec, Observer::default())
+        .unwrap()
+        .values()
+        .to_vec()
 }
 
 /// Mean of `f` over the values (`dims` components each).
@@ -411,7 +420,7 @@ fn a_single_hot_pixel_or_mostly_black_image_works() {
         SampleSpace::EnvironmentDirections(image.clone()),
     ] {
         let spec = VectorSpec::new(8, 8, 2, 3, space.clone()).with_swaps_per_pixel(2.0);
-        let (volume, _) = generate_vector(&spec).unwrap();
+        let volume = generate_vector(&spec, Observer::default()).unwrap();
         let pdf = volume.pdf().expect("image spaces store their pdf");
         assert!(
             pdf.iter().all(|&p| p > 0.0 && p == pdf[0]),
@@ -435,7 +444,7 @@ fn a_single_hot_pixel_or_mostly_black_image_works() {
     }
     let image = Arc::new(ImagePdf::from_luminance(w, h, lum).unwrap());
     let spec = VectorSpec::new(8, 8, 2, 3, SampleSpace::EnvironmentDirections(image));
-    let (volume, _) = generate_vector(&spec).unwrap();
+    let volume = generate_vector(&spec, Observer::default()).unwrap();
     assert!(volume.pdf().unwrap().iter().all(|&p| p > 0.0));
 }
 
@@ -586,9 +595,8 @@ fn png_and_hdr_files_load_as_luminance() {
     let space = SampleSpace::EnvironmentDirections(Arc::new(image));
     let spec = VectorSpec::new(4, 4, 2, 1, space);
     assert!(
-        generate_vector(&spec)
+        generate_vector(&spec, Observer::default())
             .unwrap()
-            .0
             .pdf()
             .unwrap()
             .iter()

@@ -7,8 +7,7 @@ use std::time::Instant;
 use stbn_gen::analysis::Field;
 use stbn_gen::baselines::comparison;
 use stbn_gen::export::read_slices_png;
-use stbn_gen::filter_adapted::{FilterAdaptedSpec, generate_filter_adapted};
-use stbn_gen::{MaskSpec, generate};
+use stbn_gen::{FilterAdaptedSpec, MaskSpec, Observer, generate, generate_filter_adapted};
 
 use crate::Result;
 use crate::report::Report;
@@ -84,11 +83,12 @@ pub fn run(dirs: &[PathBuf], out: &Path, baseline_seed: Option<u64>) -> Result<(
             }
             let (wu, hu, du) = (axis(w)?, axis(h)?, axis(d)?);
             let start = Instant::now();
-            let stbn = generate(&MaskSpec::new(wu, hu, du, seed))
+            let stbn = generate(&MaskSpec::new(wu, hu, du, seed), Observer::default())
                 .map_err(|e| format!("STBN at {w}x{h}x{d}: {e}"))?;
             let stbn_seconds = start.elapsed().as_secs_f64();
             let start = Instant::now();
-            let adapted = generate_filter_adapted(&FilterAdaptedSpec::new(wu, hu, du, seed))
+            let spec = FilterAdaptedSpec::new(wu, hu, du, seed);
+            let adapted = generate_filter_adapted(&spec, Observer::default())
                 .map_err(|e| format!("filter-adapted mask at {w}x{h}x{d}: {e}"))?;
             let adapted_seconds = start.elapsed().as_secs_f64();
             for (name, kind, seconds, volume) in [
@@ -146,7 +146,7 @@ mod tests {
             ("blue2d", EnergyTopology::Independent2D),
         ] {
             let spec = MaskSpec::new(16, 16, 8, 1).with_topology(topology);
-            let values = stbn_gen::generate(&spec).unwrap().values();
+            let values = generate(&spec, Observer::default()).unwrap().values();
             let field = Field::new(16, 16, 8, &values).unwrap();
             write_slices_png(&field, dir.path(), name, PngDepth::Eight).unwrap();
             folders.push(dir.path().join(name));

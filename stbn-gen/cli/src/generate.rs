@@ -9,6 +9,7 @@ use indicatif::ProgressBar;
 use stbn_build_support::{Generated, Manifest, MaskEntry, Method};
 use stbn_gen::analysis::Field;
 use stbn_gen::export::{PngDepth, write_slices_png};
+use stbn_gen::{EnergyTrace, Observer, Progress};
 use stbn_runtime::{Encoding, PackedStbn, Space, ValueMap};
 
 use crate::report::{self, Report};
@@ -190,21 +191,21 @@ fn make(entry: &MaskEntry) -> Result<(Generated, Vec<u8>)> {
         let passes = spec.swaps_per_pixel.ceil() as u64;
         let bar = report::bar(passes, &entry.name, passes_template);
         bar.set_message(format!("0/{passes}"));
-        let mut progress = |p: stbn_gen::filter_adapted::FilterAdaptedProgress| {
-            bar.set_position(p.passes_done);
-            bar.set_message(format!("{}/{passes}", p.passes_done));
+        let mut progress = |p: Progress| {
+            bar.set_position(p.done);
+            bar.set_message(format!("{}/{passes}", p.done));
         };
-        let generated = match &space {
+        let observer = Observer::default().with_progress(&mut progress);
+        let generated = match space {
             None => Generated::Scalar(
-                stbn_gen::filter_adapted::generate_filter_adapted_with_trace(&spec, &mut progress)
-                    .map_err(|e| error(&e))?
-                    .0,
+                stbn_gen::generate_filter_adapted(&spec, observer).map_err(|e| error(&e))?,
             ),
             Some(space) => {
-                let (volume, trace) = stbn_gen::filter_adapted::generate_filter_adapted_vector(
+                let mut trace = EnergyTrace::default();
+                let spec = spec.with_space(space);
+                let volume = stbn_gen::generate_filter_adapted_vector(
                     &spec,
-                    space,
-                    &mut progress,
+                    observer.with_trace(&mut trace),
                 )
                 .map_err(|e| error(&e))?;
                 Generated::Vector { volume, trace }
@@ -217,11 +218,15 @@ fn make(entry: &MaskEntry) -> Result<(Generated, Vec<u8>)> {
         let passes = spec.swaps_per_pixel.ceil() as u64 + u64::from(spec.assignment_passes);
         let bar = report::bar(4 * passes, &entry.name, passes_template);
         bar.set_message(format!("0/{passes}"));
-        let (volume, trace) = stbn_gen::generate_vector_with_progress(&spec, &mut |p| {
-            bar.set_position((4.0 * p.passes_done) as u64);
-            bar.set_message(format!("{:.2}/{}", p.passes_done, p.passes));
-        })
-        .map_err(|e| error(&e))?;
+        let mut progress = |p: Progress| {
+            bar.set_position(p.done);
+            bar.set_message(format!("{:.2}/{passes}", p.done as f64 / 4.0));
+        };
+        let mut trace = EnergyTrace::default();
+        let observer = Observer::default()
+            .with_progress(&mut progress)
+            .with_trace(&mut trace);
+        let volume = stbn_gen::generate_vector(&spec, observer).map_err(|e| error(&e))?;
         bar.finish_and_clear();
         Generated::Vector { volume, trace }
     } else if let Method::VoidAndCluster(_) = entry.kind.method() {
@@ -231,8 +236,9 @@ fn make(entry: &MaskEntry) -> Result<(Generated, Vec<u8>)> {
             &entry.name,
             "{prefix} [{bar:40}] {percent:>3}% {elapsed_precise}, {eta} left",
         );
-        let volume = stbn_gen::generate_with_progress(&spec, &mut |p| bar.set_position(p.ranked))
-            .map_err(|e| error(&e))?;
+        let mut progress = |p: Progress| bar.set_position(p.done);
+        let observer = Observer::default().with_progress(&mut progress);
+        let volume = stbn_gen::generate(&spec, observer).map_err(|e| error(&e))?;
         bar.finish_and_clear();
         Generated::Scalar(volume)
     } else {

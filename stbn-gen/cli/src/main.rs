@@ -95,7 +95,7 @@ enum Command {
 /// `--swaps-per-pixel`: a finite number in the range both swap optimisers accept.
 fn parse_swaps_per_pixel(text: &str) -> std::result::Result<f64, String> {
     let max = stbn_gen::VectorSpec::MAX_SWAPS_PER_PIXEL
-        .min(stbn_gen::filter_adapted::FilterAdaptedSpec::MAX_SWAPS_PER_PIXEL);
+        .min(stbn_gen::FilterAdaptedSpec::MAX_SWAPS_PER_PIXEL);
     match text.parse::<f64>() {
         Ok(n) if (0.0..=max).contains(&n) => Ok(n),
         _ => Err(format!("must be a number in 0..={max} (got {text:?})")),

@@ -10,7 +10,7 @@ use stbn_gen::analysis::{
     filtered_error_vector, toroidal_shift,
 };
 use stbn_gen::baselines::white_noise;
-use stbn_gen::{EnergyTopology, MaskSpec};
+use stbn_gen::{EnergyTopology, MaskSpec, Observer};
 
 use crate::Result;
 use crate::output::{Cell, Column, Table};
@@ -49,6 +49,7 @@ pub fn mask_section(mask: &PointMask) -> Result<String> {
     let stbn = stbn_gen::generate(
         &MaskSpec::new(w as u32, h as u32, d as u32, 1)
             .with_topology(EnergyTopology::Spatiotemporal),
+        Observer::default(),
     )
     .map_err(|e| format!("{}: reference STBN: {e}", mask.name))?
     .values();

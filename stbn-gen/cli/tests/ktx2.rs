@@ -72,7 +72,7 @@ fn generate_writes_ktx2_textures_equal_to_the_embedded_payload() {
         assert_eq!(header.type_size, type_size);
         assert_eq!(reader.basic_dfd(), Some(&dfd), "{}", entry.name);
 
-        let volume = stbn_gen::generate(&spec).unwrap();
+        let volume = stbn_gen::generate(&spec, stbn_gen::Observer::default()).unwrap();
         let payload = encode_payload(&volume, entry.encoding);
         let levels: Vec<_> = reader.levels().collect();
         assert_eq!(levels.len(), 1);

@@ -8,8 +8,8 @@
 //! A renderer that thresholds a mask (`[v < t]`, a stochastic decision) and then filters the
 //! result with `f` sees, at each threshold, the error `Σ_p (Σ_q f(p − q)([v_q < t] − m_t))²`.
 //! Expanding the square gives pair weights `g = f ⋆ f`, the filter's autocorrelation
-//! ([`SpatialFilter`], [`TemporalFilter`], [`FilterCombination`]; [`filters`] shows how they are
-//! wrapped, truncated and scaled to integers). Averaged over a uniform threshold `t`, the
+//! ([`SpatialFilter`], [`TemporalFilter`], [`FilterCombination`]; the `filters` module wraps,
+//! truncates and scales them to integers). Averaged over a uniform threshold `t`, the
 //! pair term is `E_t[([a < t] − t)([b < t] − t)] = 1/3 − max(a, b) + (a² + b²)/2`, in which only
 //! `−|a − b| / 2` couples the two values: swaps within a frame keep each frame's multiset, so the
 //! rest is constant. So the expected filtered error of thresholded masks is, up to constants,
@@ -25,7 +25,7 @@
 //! the mask's frames (a mask is read toroidally in time), while the metric starts its EMA at
 //! frame 0, whose weight `(1 − α)^(frames − 1)` at the last frame is negligible for dozens of
 //! frames but not for a handful. Vector masks use the same kernel on the ranks of their
-//! projections onto a few directions ([`generate_filter_adapted_vector`]).
+//! projections onto a few directions ([`generate_vector`]).
 //!
 //! [`ValueKernel::Product`] instead uses `u(x)·u(y)` (centred values, dot product for vectors):
 //! the squared error of the filtered values themselves, i.e. of linear integrands. Its deltas
@@ -41,20 +41,11 @@
 //! of the same size and seed). A greedy optimiser ([`optimizer`]) then proposes swaps within
 //! frames and keeps those that lower `E`, with exact integer deltas, for
 //! [`FilterAdaptedSpec::swaps_per_pixel`] proposals per pixel.
-//!
-//! # Example
-//!
-//! ```
-//! use stbn_gen::filter_adapted::{FilterAdaptedSpec, generate_filter_adapted};
-//! let spec = FilterAdaptedSpec::new(16, 16, 8, 7).with_swaps_per_pixel(2.0);
-//! let volume = generate_filter_adapted(&spec).unwrap();
-//! let mut slice = volume.slice(3).to_vec();
-//! slice.sort_unstable();
-//! assert!(slice.iter().enumerate().all(|(i, &r)| r as usize == i));
-//! ```
 
-pub mod filters;
-pub mod optimizer;
+mod filters;
+pub(crate) mod optimizer;
+#[cfg(test)]
+mod tests;
 
 pub use filters::{FilterCombination, SpatialFilter, TemporalFilter};
 
@@ -69,20 +60,21 @@ use crate::spec::{MaskSpec, SpecError};
 use crate::trace::{EnergyTrace, TracePoint};
 use crate::vector::{InitialArrangement, arranged_start};
 use crate::volume::Volume;
-use crate::{VectorVolume, generate};
+use crate::{Observer, VectorVolume, generate};
 use filters::{Kernel, PairWeights, ScanKernel};
 use optimizer::{CORE_RADIUS_SQUARED, Energy, Optimizer};
 
-/// How two values interact in the energy ([module docs](self)).
+/// How two values interact in the energy of a filter-adapted mask.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum ValueKernel {
     /// `−|a − b|` (FAST's kernel for real values): the expected filtered error of the mask
     /// thresholded at a uniform random level. Vector masks sum it over the ranks of projections
-    /// onto a few directions ([`generate_filter_adapted_vector`]). Each proposal scans both
-    /// pixels' footprints (once per direction).
+    /// onto a few directions ([`FilterAdaptedVectorSpec`]). Each proposal scans both pixels'
+    /// footprints (once per direction).
     Distance,
     /// `a·b` of centred values (dot product for vectors): the squared filtered error of the
-    /// values themselves (linear integrands). Any space; `O(1)` per proposal.
+    /// values themselves (linear integrands). Any space; `O(1)` per proposal. From the same STBN
+    /// start it raises the filtered error of thresholded scalar masks (BENCHMARKS.md).
     Product,
 }
 
@@ -96,8 +88,15 @@ impl ValueKernel {
     }
 }
 
-/// Everything that determines a filter-adapted mask, bit for bit: equal specs give identical
-/// masks on every machine and for every thread count.
+/// Everything that determines a scalar filter-adapted mask, bit for bit: equal specs give
+/// identical masks on every machine and for every thread count
+/// ([`generate_filter_adapted`](crate::generate_filter_adapted)). [`FilterAdaptedSpec::with_space`]
+/// makes the spec of a vector mask.
+///
+/// The mask is optimised after EA's FAST (*Filter-Adapted Spatiotemporal Sampling for Real-Time
+/// Rendering*, 2024) for the filter that will consume it, e.g. a spatial Gaussian blur followed by
+/// a TAA-style exponential moving average: swaps within frames lower the expected error, after
+/// the filters, of the mask thresholded at a uniform random level.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FilterAdaptedSpec {
     /// Pixels per row, `1..=`[`MaskSpec::MAX_AXIS`].
@@ -184,6 +183,15 @@ impl FilterAdaptedSpec {
         self
     }
 
+    /// The spec of the vector mask of `space` with this spec's size, seed, filters, kernel,
+    /// budget and start.
+    pub fn with_space(self, space: SampleSpace) -> FilterAdaptedVectorSpec {
+        FilterAdaptedVectorSpec {
+            filter_adapted: self,
+            space,
+        }
+    }
+
     /// Number of pixels of one frame.
     pub fn slice_pixels(&self) -> u64 {
         u64::from(self.width) * u64::from(self.height)
@@ -200,7 +208,7 @@ impl FilterAdaptedSpec {
     /// the integer components (4 each) and field (8 each, plus 16 while it is computed from
     /// scratch); before all that the scalar STBN mask's generator
     /// ([`MaskSpec::BYTES_PER_PIXEL`]) when the arrangement needs one.
-    pub fn bytes_per_pixel(&self, dims: usize) -> u64 {
+    fn bytes_per_pixel(&self, dims: usize) -> u64 {
         let dims = dims as u64;
         let optimiser = match self.value_kernel {
             ValueKernel::Distance => 4 + 6 * dims * dims,
@@ -216,17 +224,6 @@ impl FilterAdaptedSpec {
     /// before anything is allocated, and an oversized request reports the memory it would take.
     pub fn validate(&self) -> Result<(), FilterAdaptedSpecError> {
         self.validate_dims(1)
-    }
-
-    /// [`FilterAdaptedSpec::validate`] for a vector mask of `space`, which also needs a valid
-    /// space.
-    pub fn validate_vector(&self, space: &SampleSpace) -> Result<(), FilterAdaptedSpecError> {
-        if let SampleSpace::Vec { dims } = space
-            && !space.is_valid()
-        {
-            return Err(FilterAdaptedSpecError::InvalidDims(*dims));
-        }
-        self.validate_dims(space.dims())
     }
 
     fn validate_dims(&self, dims: usize) -> Result<(), FilterAdaptedSpecError> {
@@ -287,6 +284,42 @@ impl FilterAdaptedSpec {
     }
 }
 
+/// The spec of a filter-adapted vector mask: a [`FilterAdaptedSpec`] and the space its values
+/// come from ([`generate_filter_adapted_vector`](crate::generate_filter_adapted_vector)). Equal
+/// specs give identical masks for every thread count.
+///
+/// Each frame holds the stratified set of `space` that a [`crate::VectorSpec`] of the same size,
+/// seed and start begins with, and keeps it exactly. With [`ValueKernel::Distance`] each value is
+/// projected onto fixed directions (the axes and, for two or more components, the diagonals
+/// `(e_i ± e_j)/√2` of every pair of axes: 4 directions in 2D, 9 in 3D, 16 in 4D) and the value
+/// kernel is `−Σ_u |r_u(a) − r_u(b)|`, with `r_u` the rank of the projection onto `u` within its
+/// frame (as a level below 2¹⁴, like scalar ranks): per direction, the expected error of a
+/// half-space threshold `⟨v, u⟩ < t` that holds a uniform random fraction of the frame, as the
+/// scalar energy is for `v < t`. Summed over directions it approximates FAST's Euclidean kernel
+/// (all half-spaces) with exact integer scans, one per direction per proposal.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FilterAdaptedVectorSpec {
+    /// Size, seed, filters, value kernel, budget, tolerance and start.
+    pub filter_adapted: FilterAdaptedSpec,
+    /// What each pixel holds.
+    pub space: SampleSpace,
+}
+
+impl FilterAdaptedVectorSpec {
+    /// Checks the space (`SampleSpace::Vec` needs `dims` in `1..=4`) and every field of
+    /// [`FilterAdaptedVectorSpec::filter_adapted`] against its documented range. Sizes are
+    /// checked before anything is allocated, and an oversized request reports the memory it
+    /// would take.
+    pub fn validate(&self) -> Result<(), FilterAdaptedSpecError> {
+        if let SampleSpace::Vec { dims } = self.space
+            && !self.space.is_valid()
+        {
+            return Err(FilterAdaptedSpecError::InvalidDims(dims));
+        }
+        self.filter_adapted.validate_dims(self.space.dims())
+    }
+}
+
 /// A [`FilterAdaptedSpec`] field out of range, or a space the generator does not take. `Display`
 /// names the field.
 #[derive(Clone, Debug, PartialEq)]
@@ -332,19 +365,6 @@ impl fmt::Display for FilterAdaptedSpecError {
 }
 
 impl std::error::Error for FilterAdaptedSpecError {}
-
-/// Progress of one generation, reported after each pass.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FilterAdaptedProgress {
-    /// Passes completed.
-    pub passes_done: u64,
-    /// Passes the budget asks for (`⌈swaps_per_pixel⌉`).
-    pub passes: u64,
-    /// Swaps proposed so far.
-    pub swaps_attempted: u64,
-    /// Swaps kept so far.
-    pub swaps_accepted: u64,
-}
 
 /// The levels the distance energy compares: the rank itself for frames of up to 2¹⁴ pixels,
 /// else `⌊rank · 2¹⁴ / n⌋` (2¹⁴ equal-sized groups of neighbouring ranks, whose order within a
@@ -435,13 +455,13 @@ fn scalar_energy(spec: &FilterAdaptedSpec, n: usize) -> (Energy, f64) {
     }
 }
 
-/// Runs the budget of `spec` on `optimizer`, recording the energy (divided by `unit`) after each
-/// pass.
+/// Runs the budget of `spec` on `optimizer`, reporting each pass to `observer` and recording the
+/// energy (divided by `unit`) after each.
 fn optimise(
     spec: &FilterAdaptedSpec,
     optimizer: &mut Optimizer,
     unit: f64,
-    progress: &mut dyn FnMut(FilterAdaptedProgress),
+    observer: &mut Observer<'_>,
 ) -> EnergyTrace {
     let point = |o: &Optimizer| TracePoint {
         swaps_attempted: o.swaps_attempted(),
@@ -452,44 +472,34 @@ fn optimise(
         points: vec![point(optimizer)],
     };
     let passes = spec.swaps_per_pixel.ceil() as u64;
+    observer.report(0, passes);
     for pass in 0..passes {
         optimizer.run_pass((spec.swaps_per_pixel - pass as f64).min(1.0));
         trace.points.push(point(optimizer));
-        progress(FilterAdaptedProgress {
-            passes_done: pass + 1,
-            passes,
-            swaps_attempted: optimizer.swaps_attempted(),
-            swaps_accepted: optimizer.swaps_accepted(),
-        });
+        observer.report(pass + 1, passes);
     }
     trace
 }
 
-/// Generates the scalar mask `spec` describes ([module docs](self)).
-///
-/// Deterministic: equal specs give equal volumes on every machine and for every thread count.
-pub fn generate_filter_adapted(spec: &FilterAdaptedSpec) -> Result<Volume, FilterAdaptedSpecError> {
-    generate_filter_adapted_with_trace(spec, &mut |_| {}).map(|(volume, _)| volume)
-}
-
-/// [`generate_filter_adapted`], calling `progress` after each pass, with the energy after each
-/// pass.
+/// The scalar mask `spec` describes ([`crate::generate_filter_adapted`]).
 ///
 /// The trace's energies are per pixel, with the pair weights normalised to sum 1 per factor and
 /// values in `[0, 1)` (distance) or `[−1, 1)` (product); for the distance kernel they are
 /// relative to the initial arrangement (its absolute energy would cost a full footprint scan of
 /// every pixel), for the product kernel absolute.
-pub fn generate_filter_adapted_with_trace(
+pub(crate) fn generate_scalar(
     spec: &FilterAdaptedSpec,
-    progress: &mut dyn FnMut(FilterAdaptedProgress),
-) -> Result<(Volume, EnergyTrace), FilterAdaptedSpecError> {
+    mut observer: Observer<'_>,
+) -> Result<Volume, FilterAdaptedSpecError> {
     spec.validate()?;
     let (w, h, d) = (spec.width, spec.height, spec.depth);
     let n = spec.slice_pixels() as usize;
     let perm: Vec<u32> = match spec.initial_arrangement {
-        InitialArrangement::ScalarStbn => generate(&MaskSpec::new(w, h, d, spec.seed))?
-            .ranks()
-            .to_vec(),
+        InitialArrangement::ScalarStbn => {
+            generate(&MaskSpec::new(w, h, d, spec.seed), Observer::default())?
+                .ranks()
+                .to_vec()
+        }
         InitialArrangement::Random => {
             let mut perm = vec![0u32; n * d as usize];
             perm.par_chunks_mut(n).enumerate().for_each(|(z, slice)| {
@@ -509,16 +519,16 @@ pub fn generate_filter_adapted_with_trace(
     };
     let (energy, unit) = scalar_energy(spec, n);
     let mut optimizer = Optimizer::new(energy, (w, h, d), perm, spec.seed);
-    let trace = optimise(spec, &mut optimizer, unit, progress);
-    let volume = Volume::from_global_ranks(w, h, d, optimizer.perm());
-    Ok((volume, trace))
+    let trace = optimise(spec, &mut optimizer, unit, &mut observer);
+    observer.finish(trace);
+    Ok(Volume::from_global_ranks(w, h, d, optimizer.perm()))
 }
 
 /// The screening threshold of distance proposals, in units of `len · Σ g` (see [`optimizer`]).
 /// Measured at 128×128×64 from STBN (BENCHMARKS.md): thresholds from 3·10⁻⁴ to 3·10⁻³, or no
 /// screening at all, reach the same filtered error within 3·10⁻⁵ after 32 passes; 10⁻³ and
 /// 3·10⁻⁴ cost about the same time, 3·10⁻³ a third more, no screening five times as much.
-pub const SCREEN: f64 = 1e-3;
+const SCREEN: f64 = 1e-3;
 
 /// Whether the space's components lie in `[0, 1)` (else in `[−1, 1]`).
 fn unit_interval(space: &SampleSpace) -> bool {
@@ -625,34 +635,22 @@ fn vector_setup(
     Ok((values, energy, unit))
 }
 
-/// Generates the vector mask of `space` that `spec` describes, with the energy after each pass
-/// (per pixel, as [`generate_filter_adapted_with_trace`] reports it; components as levels / 2¹⁴
-/// for the distance kernel, as `[−1, 1]` values for the product). Every frame keeps its initial
-/// stratified set exactly.
-///
-/// With [`ValueKernel::Distance`] each value is projected onto fixed directions
-/// (the axes and, for two or more components, the diagonals `(e_i ± e_j)/√2` of every pair of
-/// axes: 4 directions in 2D, 9 in 3D, 16 in 4D) and the value kernel is
-/// `−Σ_u |r_u(a) − r_u(b)|`, with `r_u` the rank of the projection onto `u` within its frame
-/// (as a level below 2¹⁴, like scalar ranks): per direction, the expected error of a half-space
-/// threshold `⟨v, u⟩ < t` that holds a uniform random fraction of the frame, as the scalar energy
-/// is for `v < t`. Summed over directions it approximates FAST's Euclidean kernel (all
-/// half-spaces) with exact integer scans, one per direction per proposal.
-///
-/// Deterministic: equal specs and spaces give equal volumes and traces for every thread count.
-pub fn generate_filter_adapted_vector(
-    spec: &FilterAdaptedSpec,
-    space: &SampleSpace,
-    progress: &mut dyn FnMut(FilterAdaptedProgress),
-) -> Result<(VectorVolume, EnergyTrace), FilterAdaptedSpecError> {
-    spec.validate_vector(space)?;
+/// The vector mask `spec` describes ([`crate::generate_filter_adapted_vector`]), with the trace's
+/// energies per pixel as [`generate_scalar`] reports them (components as levels / 2¹⁴ for the
+/// distance kernel, as `[−1, 1]` values for the product).
+pub(crate) fn generate_vector(
+    spec: &FilterAdaptedVectorSpec,
+    mut observer: Observer<'_>,
+) -> Result<VectorVolume, FilterAdaptedSpecError> {
+    spec.validate()?;
+    let (space, spec) = (&spec.space, &spec.filter_adapted);
     let dims = space.dims();
     let (w, h, d) = (spec.width, spec.height, spec.depth);
     let n = spec.slice_pixels() as usize;
     let (values, energy, unit) = vector_setup(spec, space)?;
     let perm: Vec<u32> = (0..d as usize).flat_map(|_| 0..n as u32).collect();
     let mut optimizer = Optimizer::new(energy, (w, h, d), perm, spec.seed);
-    let trace = optimise(spec, &mut optimizer, unit, progress);
+    let trace = optimise(spec, &mut optimizer, unit, &mut observer);
     let perm = optimizer.into_perm();
     let mut out = vec![0.0f32; values.len()];
     out.par_chunks_mut(n * dims)
@@ -665,98 +663,6 @@ pub fn generate_filter_adapted_vector(
                     .copy_from_slice(&src[i * dims..(i + 1) * dims]);
             }
         });
-    Ok((VectorVolume::new((w, h, d), space, out), trace))
-}
-
-/// Everything about a generation the optimiser can check about itself, for tests: an optimiser
-/// over an explicit arrangement.
-#[doc(hidden)]
-pub mod testing {
-    use super::*;
-
-    /// A scalar optimiser for `spec` over per-pixel ranks `ranks` (each frame a permutation),
-    /// with screening disabled when `screen` is `None`.
-    pub fn scalar_optimizer(
-        spec: &FilterAdaptedSpec,
-        ranks: Vec<u32>,
-        screen: Option<f64>,
-    ) -> TestOptimizer {
-        spec.validate().expect("a valid spec");
-        let (mut energy, _) = scalar_energy(spec, spec.slice_pixels() as usize);
-        if let Energy::Distance { screen: kept, .. } = &mut energy {
-            *kept = screen;
-        }
-        TestOptimizer(Optimizer::new(
-            energy,
-            (spec.width, spec.height, spec.depth),
-            ranks,
-            spec.seed,
-        ))
-    }
-
-    /// A vector optimiser for `spec` over `space`'s arranged stratified sets, as
-    /// [`generate_filter_adapted_vector`] builds it, with screening disabled when `screen` is
-    /// `None`.
-    pub fn vector_optimizer(
-        spec: &FilterAdaptedSpec,
-        space: &SampleSpace,
-        screen: Option<f64>,
-    ) -> TestOptimizer {
-        spec.validate_vector(space).expect("a valid spec");
-        let (_, mut energy, _) = vector_setup(spec, space).expect("a valid spec");
-        if let Energy::Distance { screen: kept, .. } = &mut energy {
-            *kept = screen;
-        }
-        let n = spec.slice_pixels() as u32;
-        let perm = (0..spec.depth).flat_map(|_| 0..n).collect();
-        TestOptimizer(Optimizer::new(
-            energy,
-            (spec.width, spec.height, spec.depth),
-            perm,
-            spec.seed,
-        ))
-    }
-
-    /// The optimiser behind [`generate_filter_adapted`] and [`generate_filter_adapted_vector`],
-    /// exposed for tests.
-    pub struct TestOptimizer(Optimizer);
-
-    impl TestOptimizer {
-        /// The running energy (exact integer; distance: relative to the start).
-        pub fn energy(&self) -> i128 {
-            self.0.energy()
-        }
-        /// The absolute energy from scratch.
-        pub fn recompute_energy(&self) -> i128 {
-            self.0.recompute_energy()
-        }
-        /// Whether the product energy's kept field is exact.
-        pub fn field_is_exact(&self) -> bool {
-            self.0.field_is_exact()
-        }
-        /// The exact delta of a swap of pixels `a` and `b` of frame `z`.
-        pub fn swap_delta(&self, z: u32, a: (u32, u32), b: (u32, u32)) -> i128 {
-            self.0.swap_delta(z, a, b)
-        }
-        /// Swaps if that lowers the energy; the accepted delta.
-        pub fn try_swap(&mut self, z: u32, a: (u32, u32), b: (u32, u32)) -> Option<i128> {
-            self.0.try_swap(z, a, b)
-        }
-        /// One pass.
-        pub fn run_pass(&mut self, fraction: f64) {
-            self.0.run_pass(fraction)
-        }
-        /// Per pixel, its rank (scalar) or the index of its value in its frame's set (vector).
-        pub fn ranks(&self) -> &[u32] {
-            self.0.perm()
-        }
-        /// Proposals, fully evaluated proposals, accepted swaps.
-        pub fn counts(&self) -> (u64, u64, u64) {
-            (
-                self.0.swaps_attempted(),
-                self.0.swaps_screened(),
-                self.0.swaps_accepted(),
-            )
-        }
-    }
+    observer.finish(trace);
+    Ok(VectorVolume::new((w, h, d), space, out))
 }

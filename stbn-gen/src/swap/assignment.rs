@@ -328,7 +328,10 @@ mod tests {
         for space in spaces {
             for (w, h, d) in [(72, 64, 3), (20, 18, 2), (5, 4, 2)] {
                 let spec = VectorSpec::new(w, h, d, 9, space.clone()).with_swaps_per_pixel(2.0);
-                let start = crate::generate_vector(&spec).unwrap().0.values().to_vec();
+                let start = crate::generate_vector(&spec, crate::Observer::default())
+                    .unwrap()
+                    .values()
+                    .to_vec();
                 let mut o = SwapOptimizer::new(&spec, start.clone());
                 let before = o.energy();
                 for _ in 0..3 {

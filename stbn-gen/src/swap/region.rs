@@ -233,11 +233,11 @@ mod tests {
         use crate::SampleSpace;
         for (w, h, d) in [(20, 18, 5), (9, 10, 3), (3, 2, 2), (1, 7, 4)] {
             let spec = VectorSpec::new(w, h, d, 3, SampleSpace::Vec { dims: 2 });
-            let start = crate::generate_vector(&spec.clone().unoptimised())
-                .unwrap()
-                .0
-                .values()
-                .to_vec();
+            let start =
+                crate::generate_vector(&spec.clone().unoptimised(), crate::Observer::default())
+                    .unwrap()
+                    .values()
+                    .to_vec();
             let o = SwapOptimizer::new(&spec, start);
             let (k, state) = (&o.kernel, &o.state);
             let taps = k.spatial.len() + k.temporal.len();
@@ -270,11 +270,11 @@ mod tests {
         use crate::schedule::{Layout, PassKey, SpanStart};
         for (w, h, d) in [(40, 36, 3), (20, 9, 2), (7, 5, 2)] {
             let spec = VectorSpec::new(w, h, d, 3, SampleSpace::Vec { dims: 2 });
-            let start = crate::generate_vector(&spec.clone().unoptimised())
-                .unwrap()
-                .0
-                .values()
-                .to_vec();
+            let start =
+                crate::generate_vector(&spec.clone().unoptimised(), crate::Observer::default())
+                    .unwrap()
+                    .values()
+                    .to_vec();
             let mut o = SwapOptimizer::new(&spec, start.clone());
             let k = &o.kernel;
             for (target, span_start) in [(8, SpanStart::PassOffset), (16, SpanStart::Origin)] {

@@ -155,7 +155,10 @@ mod tests {
         ];
         for space in spaces {
             let spec = VectorSpec::new(16, 12, 6, 5, space.clone()).unoptimised();
-            let start = crate::generate_vector(&spec).unwrap().0.values().to_vec();
+            let start = crate::generate_vector(&spec, crate::Observer::default())
+                .unwrap()
+                .values()
+                .to_vec();
             // One tile over the whole slice (interior pixels and wrapping ones): no other tile
             // runs beside it.
             let tile = Tile {

@@ -1,6 +1,6 @@
 //! The scalar generator's knobs: mask size and depth, σ and the kernel truncation tolerance.
 
-use stbn_gen::{EnergyKernel, MaskSpec, Volume};
+use stbn_gen::{MaskSpec, Observer, Volume};
 
 use super::measure::{Quality, Timing, timed};
 use super::{Knob, Plan, Section, size_name};
@@ -15,7 +15,9 @@ struct Measured {
 
 /// Generates `spec` (timed, see [`timed`]) and measures the result.
 fn measure(plan: &Plan, spec: &MaskSpec) -> Result<Measured> {
-    let (volume, timing) = timed(plan.max_runs, plan.min_total, || stbn_gen::generate(spec));
+    let (volume, timing) = timed(plan.max_runs, plan.min_total, || {
+        stbn_gen::generate(spec, Observer::default())
+    });
     let volume: Volume = volume?;
     if !timing.repeatable {
         return Err(format!("{spec:?}: repeated runs gave different masks").into());
@@ -113,10 +115,10 @@ pub fn size(plan: &Plan) -> Result<Section> {
         knob: Knob::Size,
         title: "1. Mask size and depth (scalar STBN)".to_owned(),
         method: format!(
-            "`stbn_gen::generate(&MaskSpec::new(side, side, frames, {}))` with the paper's \
-             defaults (σ 1.9, density 0.1, tolerance 5·10⁻³). A bigger slice tiles less often \
-             on screen; more frames give a longer sequence per pixel before it repeats \
-             (the MC RMSE at 32 and 64 samples shows the repeat for shorter masks).",
+            "`stbn_gen::generate(&MaskSpec::new(side, side, frames, {}), Observer::default())` \
+             with the paper's defaults (σ 1.9, density 0.1, tolerance 5·10⁻³). A bigger slice \
+             tiles less often on screen; more frames give a longer sequence per pixel before it \
+             repeats (the MC RMSE at 32 and 64 samples shows the repeat for shorter masks).",
             plan.seed
         ),
         tables: vec![("size".to_owned(), "Mask size and depth.".to_owned(), table)],
@@ -177,7 +179,7 @@ pub fn kernel(plan: &Plan) -> Result<Section> {
     let mut default_row = None;
     let mut rows = Vec::new();
     for (sweep, spec) in sigma_specs.chain(tolerance_specs) {
-        let taps = EnergyKernel::new(&spec).taps();
+        let taps = spec.kernel_taps();
         let m = measure(plan, &spec)?;
         let seconds = m.timing.median();
         println!(
@@ -241,7 +243,7 @@ pub fn kernel(plan: &Plan) -> Result<Section> {
         method: format!(
             "{} masks, seed {}: σ (`MaskSpec::with_sigma`, the same in space and time) at the \
              default tolerance, then `kernel_tolerance` at the default σ 1.9. Taps per splat: \
-             `EnergyKernel::taps`, the footprint each void-and-cluster step updates (its cost). \
+             `MaskSpec::kernel_taps`, the footprint each void-and-cluster step updates (its cost). \
              σ changes what the mask *is* (the frequency where blue noise starts); the \
              tolerance only how exactly the energy is computed.",
             size_name(plan.kernel_size),

@@ -1,7 +1,7 @@
 //! The scale checks: one thread against two (time and identical output), and the largest masks
 //! against their time targets, with memory.
 
-use stbn_gen::{MaskSpec, SampleSpace, VectorSpec};
+use stbn_gen::{MaskSpec, Observer, SampleSpace, VectorSpec};
 
 use super::measure::{Timing, load_average, timed};
 use super::{Knob, Plan, Section, size_name};
@@ -35,8 +35,9 @@ pub fn threads(plan: &Plan) -> Result<Section> {
     let mut all_identical = true;
     let (w, h, d) = plan.threads_scalar;
     let scalar = MaskSpec::new(w, h, d, plan.seed);
-    let (one, t1) = in_pool(plan, 1, || stbn_gen::generate(&scalar))?;
-    let (two, t2) = in_pool(plan, 2, || stbn_gen::generate(&scalar))?;
+    let generate = || stbn_gen::generate(&scalar, Observer::default());
+    let (one, t1) = in_pool(plan, 1, generate)?;
+    let (two, t2) = in_pool(plan, 2, generate)?;
     let name = format!("scalar {}", size_name(plan.threads_scalar));
     rows(&mut table, &name, &t1, &t2, one == two);
     findings.push(verdict(&name, &t1, &t2, one == two));
@@ -44,8 +45,9 @@ pub fn threads(plan: &Plan) -> Result<Section> {
     let (w, h, d) = plan.vector_size;
     let vector = VectorSpec::new(w, h, d, plan.seed, SampleSpace::Vec { dims: 2 })
         .with_swaps_per_pixel(plan.vector_budget);
-    let (one, t1) = in_pool(plan, 1, || stbn_gen::generate_vector(&vector))?;
-    let (two, t2) = in_pool(plan, 2, || stbn_gen::generate_vector(&vector))?;
+    let generate = || stbn_gen::generate_vector(&vector, Observer::default());
+    let (one, t1) = in_pool(plan, 1, generate)?;
+    let (two, t2) = in_pool(plan, 2, generate)?;
     let name = format!(
         "Vec2 {}, {} swaps per pixel and {} assignment passes",
         size_name(plan.vector_size),
@@ -117,7 +119,7 @@ pub fn scale(plan: &Plan) -> Result<Section> {
     let ((w, h, d), target) = plan.scale_scalar;
     let spec = MaskSpec::new(w, h, d, plan.seed);
     let before = load_average();
-    let (volume, timing) = timed(1, 0.0, || stbn_gen::generate(&spec));
+    let (volume, timing) = timed(1, 0.0, || stbn_gen::generate(&spec, Observer::default()));
     volume?;
     let name = format!("scalar {}", size_name((w, h, d)));
     push(
@@ -132,7 +134,9 @@ pub fn scale(plan: &Plan) -> Result<Section> {
     let ((w, h, d), target) = plan.scale_vector;
     let spec = VectorSpec::new(w, h, d, plan.seed, SampleSpace::Vec { dims: 2 });
     let before = load_average();
-    let (volume, timing) = timed(1, 0.0, || stbn_gen::generate_vector(&spec));
+    let (volume, timing) = timed(1, 0.0, || {
+        stbn_gen::generate_vector(&spec, Observer::default())
+    });
     volume?;
     let name = format!(
         "Vec2 {}, {} swaps per pixel and {} assignment passes",

@@ -7,7 +7,7 @@ use std::time::Instant;
 use stbn_build_support::encode::{
     Layout, encode_payload, encode_vector, encode_vector_payload, encode_volume,
 };
-use stbn_gen::{MaskSpec, SampleSpace, VectorSpec, VectorVolume, Volume};
+use stbn_gen::{MaskSpec, Observer, SampleSpace, VectorSpec, VectorVolume, Volume};
 use stbn_runtime::{Compression, Encoding, PackedStbn, Stbn};
 
 use super::measure::Quality;
@@ -30,9 +30,11 @@ enum Mask {
 
 impl Mask {
     fn scalar(plan: &Plan, (w, h, d): (u32, u32, u32)) -> Result<Mask> {
-        Ok(Mask::Scalar(stbn_gen::generate(&MaskSpec::new(
-            w, h, d, plan.seed,
-        ))?))
+        let spec = MaskSpec::new(w, h, d, plan.seed);
+        Ok(Mask::Scalar(stbn_gen::generate(
+            &spec,
+            Observer::default(),
+        )?))
     }
 
     fn vector(plan: &Plan, space: SampleSpace) -> Result<Mask> {
@@ -40,7 +42,7 @@ impl Mask {
         let spec = VectorSpec::new(w, h, d, plan.seed, space.clone())
             .with_swaps_per_pixel(plan.vector_budget)
             .with_assignment_passes(0);
-        let (volume, _) = stbn_gen::generate_vector(&spec)?;
+        let volume = stbn_gen::generate_vector(&spec, Observer::default())?;
         Ok(Mask::Vector { space, volume })
     }
 

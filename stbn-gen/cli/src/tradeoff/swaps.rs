@@ -4,13 +4,43 @@
 use std::time::Instant;
 
 use stbn_gen::{
-    SampleSpace, VectorSpec, VectorVolume, generate_vector, generate_vector_with_progress,
+    EnergyTrace, Observer, Progress, SampleSpace, VectorSpec, VectorSpecError, VectorVolume,
+    generate_vector,
 };
 
 use super::measure::{Quality, timed, with_peak_memory};
 use super::{Knob, Plan, Section, size_name};
 use crate::Result;
 use crate::output::{Axis, Cell, Chart, Series, SeriesLabelPosition, Table};
+
+/// The mask of `spec` and its energy trace.
+fn generate_traced(
+    spec: &VectorSpec,
+) -> std::result::Result<(VectorVolume, EnergyTrace), VectorSpecError> {
+    let mut trace = EnergyTrace::default();
+    let volume = generate_vector(spec, Observer::default().with_trace(&mut trace))?;
+    Ok((volume, trace))
+}
+
+/// The energy trace of `spec`'s mask and the seconds from `start` to the end of each pass.
+fn generate_stamped(
+    spec: &VectorSpec,
+    start: Instant,
+) -> std::result::Result<(EnergyTrace, Vec<f64>), VectorSpecError> {
+    let mut stamps = Vec::new();
+    // A pass sweeps four tile colours: a positive multiple of 4 quarter passes ends one.
+    let mut progress = |p: Progress| {
+        if p.done > 0 && p.done % 4 == 0 {
+            stamps.push(start.elapsed().as_secs_f64());
+        }
+    };
+    let mut trace = EnergyTrace::default();
+    let observer = Observer::default()
+        .with_progress(&mut progress)
+        .with_trace(&mut trace);
+    generate_vector(spec, observer)?;
+    Ok((trace, stamps))
+}
 
 /// The spaces the vector knobs measure, with their names.
 pub fn spaces() -> [(&'static str, SampleSpace); 2] {
@@ -97,17 +127,10 @@ pub fn run(plan: &Plan) -> Result<Section> {
         let spec = VectorSpec::new(w, h, d, plan.seed, space.clone())
             .with_swaps_per_pixel(f64::from(plan.longest_budget))
             .with_assignment_passes(0);
-        let mut stamps = Vec::new();
         let start = Instant::now();
-        let (made, peak) = with_peak_memory(|| {
-            generate_vector_with_progress(&spec, &mut |p| {
-                if p.passes_done.fract() == 0.0 {
-                    stamps.push(start.elapsed().as_secs_f64());
-                }
-            })
-        });
+        let (made, peak) = with_peak_memory(|| generate_stamped(&spec, start));
         let long_seconds = start.elapsed().as_secs_f64();
-        let (_, trace) = made?;
+        let (trace, stamps) = made?;
         let energies: Vec<f64> = trace.points.iter().map(|p| p.energy).collect();
         let (initial, last) = (energies[0], energies[energies.len() - 1]);
         println!(
@@ -132,7 +155,7 @@ pub fn run(plan: &Plan) -> Result<Section> {
             let spec = VectorSpec::new(w, h, d, plan.seed, space.clone())
                 .with_swaps_per_pixel(budget)
                 .with_assignment_passes(0);
-            let (made, timing) = timed(plan.max_runs, plan.min_total, || generate_vector(&spec));
+            let (made, timing) = timed(plan.max_runs, plan.min_total, || generate_traced(&spec));
             let (volume, trace) = made?;
             if !timing.repeatable {
                 return Err(format!("{name} budget {budget}: repeated runs differ").into());
@@ -248,8 +271,9 @@ pub fn run(plan: &Plan) -> Result<Section> {
         title: "3. Vector swap budget (Vec2, UnitVec3)".to_owned(),
         method: format!(
             "`stbn_gen::generate_vector(&VectorSpec::new({w}, {h}, {d}, {}, space)\
-             .with_swaps_per_pixel(b).with_assignment_passes(0))` for each budget b (swaps \
-             alone), other fields at their defaults \
+             .with_swaps_per_pixel(b).with_assignment_passes(0), observer)` for each budget b \
+             (swaps alone; the observer records the energy trace), other fields at their \
+             defaults \
              (σi 1.9, σs 1.0, tolerance 5·10⁻³, initial arrangement from a scalar STBN mask). \
              *Energy* is the optimiser's own objective (the sum over interacting pixel pairs of \
              the paper's §4.2 energy; lower is better) at the end of the run. Pass k of a run \
@@ -347,19 +371,13 @@ fn assignment_rows(
         return Ok(format!("{name}: no assignment passes asked for."));
     };
     // The longest run, with the time at the end of every pass.
-    let mut stamps = Vec::new();
-    let start = Instant::now();
-    let (_, trace) = generate_vector_with_progress(&spec_with(longest), &mut |p| {
-        if p.passes_done.fract() == 0.0 {
-            stamps.push(start.elapsed().as_secs_f64());
-        }
-    })?;
+    let (trace, stamps) = generate_stamped(&spec_with(longest), Instant::now())?;
     let energies: Vec<f64> = trace.points.iter().map(|p| p.energy).collect();
     let swap_passes = swaps.ceil() as usize;
     let mut summary = Vec::new();
     for &passes in &plan.assignment_passes {
         let spec = spec_with(passes);
-        let (made, timing) = timed(plan.max_runs, plan.min_total, || generate_vector(&spec));
+        let (made, timing) = timed(plan.max_runs, plan.min_total, || generate_traced(&spec));
         let (volume, trace) = made?;
         if !timing.repeatable {
             return Err(format!("{name}, {passes} assignment passes: repeated runs differ").into());
