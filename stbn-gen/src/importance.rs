@@ -1,32 +1,5 @@
-//! Images as densities: [`ImagePdf`] turns an image's luminance into the pdf of points in
-//! `[0, 1)²` or of directions on the sphere, and draws stratified samples from it by inverting its
-//! marginal and conditional CDFs.
-//!
-//! # Luminance
-//!
-//! `L = 0.2126 R + 0.7152 G + 0.0722 B` (Rec. 709 / sRGB primaries) of *linear* RGB.
-//! Radiance `.hdr` files are linear already. PNG files (8 or 16 bits; gray, gray + alpha, RGB,
-//! RGBA or palette) are taken as sRGB-encoded: each channel `c ∈ [0, 1]` is decoded with the sRGB
-//! transfer function (`c / 12.92` up to 0.04045, else `((c + 0.055) / 1.055)^2.4`) before the
-//! weights apply; a gray PNG's gray is decoded the same way. Alpha is ignored.
-//!
-//! # Points: the image as a density on `[0, 1)²`
-//!
-//! Pixel `(x, y)` (row 0 at the top) covers `[x/W, (x+1)/W) × [y/H, (y+1)/H)`. The density of a
-//! point in it is `L(x, y) / mean(L)`: constant over the pixel, proportional to luminance, and
-//! integrating to 1 over the square ([`ImagePdf::point_pdf`]).
-//!
-//! # Directions: the image as a lat-long environment map
-//!
-//! Texture coordinates `(u, v) ∈ [0, 1)²` map to `φ = 2πu` (azimuth) and `θ = πv` (polar angle from
-//! `+Y`, so the top row is the sky's zenith), and the direction is
-//! `(sin θ cos φ, cos θ, sin θ sin φ)` ([`ImagePdf::direction`]). Pixel `(x, y)` spans the solid
-//! angle `Ω(y) = (2π / W) · (cos(πy/H) − cos(π(y+1)/H))`, small near the poles. Its sampling weight
-//! is `L·Ω` and within the pixel directions are uniform in solid angle (φ uniform, `cos θ`
-//! uniform), so the density per steradian is `L(x, y) / Σ L·Ω`: constant over each pixel,
-//! proportional to luminance, and integrating to 1 over the sphere ([`ImagePdf::direction_pdf`]).
-//! In `(u, v)` terms that is `p(u, v) / (2π² sin θ)`, with `p` the density over the map: the
-//! Jacobian the reference SDK omits is included.
+//! Images as densities: [`ImagePdf`], and the pixel sampler that draws stratified samples from
+//! it by inverting its marginal and conditional CDFs.
 
 use std::f64::consts::{PI, TAU};
 use std::fmt;
@@ -36,12 +9,40 @@ use std::path::{Path, PathBuf};
 use image::{DynamicImage, ImageDecoder, ImageFormat, ImageReader};
 
 /// Rec. 709 luminance weights of linear `(R, G, B)`.
-pub const LUMINANCE_WEIGHTS: [f32; 3] = [0.2126, 0.7152, 0.0722];
+const LUMINANCE_WEIGHTS: [f32; 3] = [0.2126, 0.7152, 0.0722];
 
-/// An image's luminance as a density over `[0, 1)²` or over directions ([module docs](self)).
+/// An image's luminance as a density over `[0, 1)²` or over directions: the image of
+/// [`SampleSpace::ImagePoints`](crate::SampleSpace::ImagePoints) and
+/// [`SampleSpace::EnvironmentDirections`](crate::SampleSpace::EnvironmentDirections).
 ///
 /// Valid by construction: at least one pixel, every luminance finite and `≥ 0`, and some
 /// luminance positive.
+///
+/// # Luminance
+///
+/// `L = 0.2126 R + 0.7152 G + 0.0722 B` (Rec. 709 / sRGB primaries) of *linear* RGB.
+/// Radiance `.hdr` files are linear already. PNG files (8 or 16 bits; gray, gray + alpha, RGB,
+/// RGBA or palette) are taken as sRGB-encoded: each channel `c ∈ [0, 1]` is decoded with the sRGB
+/// transfer function (`c / 12.92` up to 0.04045, else `((c + 0.055) / 1.055)^2.4`) before the
+/// weights apply; a gray PNG's gray is decoded the same way. Alpha is ignored.
+///
+/// # Points: the image as a density on `[0, 1)²`
+///
+/// Pixel `(x, y)` (row 0 at the top) covers `[x/W, (x+1)/W) × [y/H, (y+1)/H)`. The density of a
+/// point in it is `L(x, y) / mean(L)`: constant over the pixel, proportional to luminance, and
+/// integrating to 1 over the square ([`ImagePdf::point_pdf`]).
+///
+/// # Directions: the image as a lat-long environment map
+///
+/// Texture coordinates `(u, v) ∈ [0, 1)²` map to `φ = 2πu` (azimuth) and `θ = πv` (polar angle from
+/// `+Y`, so the top row is the sky's zenith), and the direction is
+/// `(sin θ cos φ, cos θ, sin θ sin φ)` ([`ImagePdf::direction`]). Pixel `(x, y)` spans the solid
+/// angle `Ω(y) = (2π / W) · (cos(πy/H) − cos(π(y+1)/H))`, small near the poles. Its sampling weight
+/// is `L·Ω` and within the pixel directions are uniform in solid angle (φ uniform, `cos θ`
+/// uniform), so the density per steradian is `L(x, y) / Σ L·Ω`: constant over each pixel,
+/// proportional to luminance, and integrating to 1 over the sphere ([`ImagePdf::direction_pdf`]).
+/// In `(u, v)` terms that is `p(u, v) / (2π² sin θ)`, with `p` the density over the map: the
+/// Jacobian the reference SDK omits is included.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ImagePdf {
     width: u32,
@@ -77,7 +78,7 @@ impl ImagePdf {
     pub const MAX_FILE_BYTES: u64 = 320 << 20;
 
     /// Reads a `.png` or Radiance `.hdr` file (chosen by the extension, case-insensitive) and
-    /// takes its luminance ([module docs](self)): [`ImagePdf::read_file`], then
+    /// takes its luminance (see the type's docs): [`ImagePdf::read_file`], then
     /// [`ImagePdf::decode`].
     ///
     /// Errors name the file: it cannot be opened or decoded, its extension is neither, it is not

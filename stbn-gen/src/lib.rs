@@ -67,6 +67,8 @@
 //! assert_eq!(volume.dims(), 2);
 //! ```
 
+#![warn(missing_docs)]
+
 pub mod analysis;
 pub mod baselines;
 pub mod export;

@@ -1,32 +1,5 @@
-//! Sample spaces of vector masks: what one pixel's value is, the density it was drawn from, and
-//! the stratified sample set each slice starts from.
-//!
-//! # Conventions
-//!
-//! - [`SampleSpace::Vec`]: `dims` components, each in `[0, 1)`.
-//! - [`SampleSpace::UnitVec1`]: one component, `+1` or `−1`.
-//! - [`SampleSpace::UnitVec2`]: `(cos φ, sin φ)`.
-//! - [`SampleSpace::UnitVec3`]: `(x, y, z)` on the unit sphere.
-//! - [`SampleSpace::UniformHemisphere`] and [`SampleSpace::CosineHemisphere`]: `(x, y, z)` on the
-//!   unit sphere with `z ≥ 0`: the hemisphere around `+Z` (tangent-space convention).
-//! - [`SampleSpace::ImagePoints`]: `(u, v)` in `[0, 1)²`, `u` along image rows (left to right),
-//!   `v` down the image (row 0 is the top row): pixel `(⌊u·W⌋, ⌊v·H⌋)`.
-//! - [`SampleSpace::EnvironmentDirections`]: unit `(x, y, z)` with `+Y` up, from a lat-long map
-//!   ([`ImagePdf::direction`] has the mapping).
-//!
-//! # Stratified slices
-//!
-//! Each slice of a mask holds one sample set of `W·H` values, drawn by
-//! [`StratifiedSampler::slice`] and then only permuted by the optimiser. The set starts from a
-//! low-discrepancy set of the unit square or hypercube (the rank-1 lattice of the generalised
-//! golden ratio, `R_d`, for up to two components, the Halton sequence for three and four) under a
-//! random toroidal shift, *latinised*:
-//! every component is replaced by `(rank + jitter) / n`, where `rank` is the point's rank in that
-//! component and `jitter` uniform in `[0, 1)`. So each component is exactly stratified (one value
-//! in each interval `[i/n, (i+1)/n)`) while the points keep the lattice's joint spread. The
-//! spaces other than [`SampleSpace::Vec`] map these points through an area-preserving map (polar
-//! coordinates in `z` or `z²`, or the inverse CDF of an image), so the strata stay equal-area on
-//! the circle, sphere, hemisphere or image.
+//! Sample spaces of vector masks: [`SampleSpace`] and the stratified sample set each slice starts
+//! from.
 
 use std::sync::Arc;
 
@@ -39,6 +12,32 @@ use crate::importance::{ImagePdf, PixelSampler};
 /// The set the values of a vector mask are drawn from, and with which density.
 ///
 /// Two spaces are equal when their kind and (for image spaces) their images are equal.
+///
+/// # Conventions
+///
+/// - [`SampleSpace::Vec`]: `dims` components, each in `[0, 1)`.
+/// - [`SampleSpace::UnitVec1`]: one component, `+1` or `−1`.
+/// - [`SampleSpace::UnitVec2`]: `(cos φ, sin φ)`.
+/// - [`SampleSpace::UnitVec3`]: `(x, y, z)` on the unit sphere.
+/// - [`SampleSpace::UniformHemisphere`] and [`SampleSpace::CosineHemisphere`]: `(x, y, z)` on the
+///   unit sphere with `z ≥ 0`: the hemisphere around `+Z` (tangent-space convention).
+/// - [`SampleSpace::ImagePoints`]: `(u, v)` in `[0, 1)²`, `u` along image rows (left to right),
+///   `v` down the image (row 0 is the top row): pixel `(⌊u·W⌋, ⌊v·H⌋)`.
+/// - [`SampleSpace::EnvironmentDirections`]: unit `(x, y, z)` with `+Y` up, from a lat-long map
+///   ([`ImagePdf::direction`] has the mapping).
+///
+/// # Stratified slices
+///
+/// Each slice of a vector mask holds one sample set of `W·H` values, drawn from a seeded stream
+/// per slice and then only permuted by the optimiser. The set starts from a low-discrepancy set
+/// of the unit square or hypercube (the rank-1 lattice of the generalised golden ratio, `R_d`,
+/// for up to two components, the Halton sequence for three and four) under a random toroidal
+/// shift, *latinised*: every component is replaced by `(rank + jitter) / n`, where `rank` is the point's rank in that
+/// component and `jitter` uniform in `[0, 1)`. So each component is exactly stratified (one value
+/// in each interval `[i/n, (i+1)/n)`) while the points keep the lattice's joint spread. The
+/// spaces other than [`SampleSpace::Vec`] map these points through an area-preserving map (polar
+/// coordinates in `z` or `z²`, or the inverse CDF of an image), so the strata stay equal-area on
+/// the circle, sphere, hemisphere or image.
 #[derive(Clone, Debug, PartialEq)]
 pub enum SampleSpace {
     /// Uniform in `[0, 1)^dims`, `dims` in `1..=4`. Density 1.
@@ -167,7 +166,7 @@ impl SampleSpace {
 
     /// This space prepared for drawing stratified slices: the image spaces build their CDFs
     /// here, once. Panics if the space is not [valid](SampleSpace::is_valid).
-    pub fn stratified_sampler(&self) -> StratifiedSampler<'_> {
+    pub(crate) fn stratified_sampler(&self) -> StratifiedSampler<'_> {
         assert!(self.is_valid(), "invalid sample space {self:?}");
         let pixels = match self {
             SampleSpace::ImagePoints(image) => Some(image.point_sampler()),
@@ -182,7 +181,7 @@ impl SampleSpace {
 }
 
 /// Draws stratified sample sets of one [`SampleSpace`] ([`SampleSpace::stratified_sampler`]).
-pub struct StratifiedSampler<'a> {
+pub(crate) struct StratifiedSampler<'a> {
     space: &'a SampleSpace,
     /// The image spaces' CDFs.
     pixels: Option<PixelSampler>,
@@ -190,9 +189,9 @@ pub struct StratifiedSampler<'a> {
 
 impl StratifiedSampler<'_> {
     /// `count` values (`count · dims()` components, value `i` at `i·dims()..`) forming one
-    /// stratified sample set of the space ([module docs](self)), in a random order: the initial
+    /// stratified sample set of the space ([`SampleSpace`]'s docs), in a random order: the initial
     /// state of one slice. Deterministic for a given `rng` state.
-    pub fn slice(&self, count: usize, rng: &mut ChaCha8Rng) -> Vec<f32> {
+    pub(crate) fn slice(&self, count: usize, rng: &mut ChaCha8Rng) -> Vec<f32> {
         let space = self.space;
         let dims = space.dims();
         let mut values: Vec<f32> = Vec::with_capacity(count * dims);
@@ -268,7 +267,7 @@ const HILBERT_BITS: u32 = 16;
 /// directions), 16 bits per axis. Values close along the curve are close in value space, so
 /// sorting a sample set by this key and handing it out in the order of a scalar blue-noise mask's
 /// ranks places similar values far apart.
-pub fn hilbert_key(space: &SampleSpace, value: &[f32]) -> u64 {
+pub(crate) fn hilbert_key(space: &SampleSpace, value: &[f32]) -> u64 {
     let dims = space.dims();
     let (lo, hi) = match space {
         SampleSpace::Vec { .. } | SampleSpace::ImagePoints(_) => (0.0, 1.0),
@@ -378,7 +377,7 @@ fn radical_inverse(mut k: u64, base: u64) -> f64 {
 }
 
 /// `count` points of `[0, 1)^dims` (`count · dims` coordinates, point `k` at `k·dims..`): a
-/// low-discrepancy set under a random toroidal shift, latinised ([module docs](self)): in every
+/// low-discrepancy set under a random toroidal shift, latinised ([`SampleSpace`]'s docs): in every
 /// component, the point of rank `r` gets `(r + jitter) / count`. The set is the `R_d` lattice
 /// `fract(s + k·α)` for one and two components (the best 2D spread of the candidates measured)
 /// and the Halton sequence in bases 2, 3, 5, 7 for three and four (the `R_3` and `R_4` lattices

@@ -29,8 +29,8 @@ fn baseline(kind: BaselineKind, w: u32, h: u32, d: u32, seed: u64) -> Vec<f64> {
         .values()
 }
 
-/// The expected white-noise filtered error at frame `k` (see the `filtered` module docs):
-/// `√(E[t(1 − t)] · (Σ wᵢ²)² · cₖ)`, with `E[t(1 − t)] = 1/6`.
+/// The expected white-noise filtered error at frame `k` (see the `analysis` docs, "Filtered
+/// error"): `√(E[t(1 − t)] · (Σ wᵢ²)² · cₖ)`, with `E[t(1 − t)] = 1/6`.
 fn white_noise_expectation(k: i32, options: FilteredErrorOptions) -> f64 {
     let squares: f64 = gaussian_weights(options.sigma).iter().map(|w| w * w).sum();
     let decay = (1.0 - options.alpha).powi(2);

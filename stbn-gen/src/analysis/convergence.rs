@@ -1,20 +1,7 @@
-//! Convergence of per-pixel integration (Wolfe et al. 2022, Fig. 4): each pixel estimates
-//! `I = ∫₀¹ f(x) dx` from the mask values it sees over the frames as samples.
+//! Convergence of per-pixel 1D integration over the frames, Monte Carlo and EMA ([`analysis`]
+//! docs, "Convergence").
 //!
-//! Pixel `p` at sample `k ≥ 0` reads frame `zₖ = (start + k) mod depth` (toroidal
-//! progressiveness: a sequence may start at any frame, and runs longer than `depth` wrap), so its
-//! samples are `xₖ(p) = v(p, zₖ)`. Two estimators:
-//!
-//! ```text
-//! Monte Carlo:  mₖ = (1 / (k + 1)) · Σⱼ₌₀..ₖ f(xⱼ)
-//! EMA:          e₀ = f(x₀),   eₖ = α · f(xₖ) + (1 − α) · eₖ₋₁
-//! ```
-//!
-//! and the error after `k + 1` samples is the root-mean-square over the `W·H` pixels,
-//! `RMSE(k) = √( Σₚ (estimateₖ(p) − I)² / (W·H) )`, in the units of `f` (all integrands here are
-//! dimensionless). White noise gives `σ_f / √(k + 1)` for Monte Carlo; a mask that is blue over
-//! time converges faster. The EMA never converges (its error plateaus at about
-//! `σ_f · √(α / (2 − α))` for white noise) but a blue-over-time mask lowers the plateau.
+//! [`analysis`]: crate::analysis#convergence
 
 use rayon::prelude::*;
 
@@ -105,8 +92,8 @@ pub struct Convergence {
     pub ema: Vec<f64>,
 }
 
-/// The RMSE over pixels of both estimators of `integrand` after each sample ([module
-/// docs](self)).
+/// The RMSE over pixels of both estimators of `integrand` after each sample ([`analysis`
+/// docs](crate::analysis#convergence)).
 ///
 /// Deterministic for any thread count (pixel chunks are summed in order). Panics if
 /// `samples == 0` or `alpha ∉ (0, 1]`.
@@ -128,7 +115,7 @@ pub fn convergence(
     )
 }
 
-/// The Monte Carlo and EMA error curves ([module docs](self)) of `pixels` pixels over frames
+/// The Monte Carlo and EMA error curves ([module docs](crate::analysis#convergence)) of `pixels` pixels over frames
 /// `0..depth`, where `samples(z, range)` yields `f` at frame `z` for the pixels in `range`, and
 /// `exact` is the integral. Shared by [`convergence`] and
 /// [`convergence_2d`](super::convergence2d::convergence_2d). Pixel chunks run in parallel and

@@ -1,32 +1,23 @@
-//! Convergence of per-pixel 2D integration (Wolfe et al. 2022, Fig. 6): each pixel estimates
-//! `I = ∫∫_[0,1)² f(x, y) dx dy` from 2D samples it sees over the frames.
+//! Convergence of per-pixel 2D integration over the frames ([`analysis`] docs, "2D
+//! convergence").
 //!
-//! The samples come from two [`Field`]s of the same size, one per coordinate: the two components
-//! of a 2D vector mask, or one scalar mask read twice at different offsets (as a renderer that
-//! needs two numbers per pixel would, see [`toroidal_shift`]), or two independent masks. Pixel
-//! `p` at sample `k` reads frame `zₖ = (start + k) mod depth` of both, and the estimators and the
-//! RMSE are those of [`super::convergence()`]: a Monte Carlo running mean and an EMA, the
-//! root-mean-square error over the `W·H` pixels after each sample, in the units of `f`
-//! (dimensionless here).
-//!
-//! A 2D integrand with an edge across both axes (the disc, the diagonal step) shows whether the
-//! pairs are well spread in the plane, which two well-spread 1D sequences do not guarantee.
+//! [`analysis`]: crate::analysis#2d-convergence
 
 use super::convergence::{Convergence, ConvergenceOptions, estimator_rmse};
 use super::{Field, FieldError};
 
 /// Radius of [`Integrand2D::Disc`].
-pub const DISC_RADIUS: f64 = 0.4;
+const DISC_RADIUS: f64 = 0.4;
 /// Standard deviation of [`Integrand2D::Gaussian`].
-pub const GAUSSIAN_SIGMA: f64 = 0.2;
+const GAUSSIAN_SIGMA: f64 = 0.2;
 
 /// A 2D integrand on `[0, 1)²` with a known integral.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Integrand2D {
-    /// The indicator of the disc of radius [`DISC_RADIUS`] centred at `(½, ½)`;
+    /// The indicator of the disc of radius 0.4 centred at `(½, ½)`;
     /// `∫ f = π · 0.4² ≈ 0.5027`. A curved edge, like a soft shadow's penumbra.
     Disc,
-    /// `exp(−((x − ½)² + (y − ½)²) / (2σ²))` with σ = [`GAUSSIAN_SIGMA`];
+    /// `exp(−((x − ½)² + (y − ½)²) / (2σ²))` with σ = 0.2;
     /// `∫ f = (σ √(2π) · erf(1 / (2σ√2)))² ≈ 0.2451`. Smooth.
     Gaussian,
     /// `1` where `x + y < 1`, else `0`; `∫ f = ½`. A straight edge across both axes.
@@ -119,7 +110,7 @@ pub fn toroidal_shift(field: &Field, dx: usize, dy: usize) -> Vec<f64> {
 }
 
 /// The RMSE over pixels of the Monte Carlo and EMA estimates of `integrand`, with samples
-/// `(xs(p, zₖ), ys(p, zₖ))`, after each sample ([module docs](self)).
+/// `(xs(p, zₖ), ys(p, zₖ))`, after each sample ([module docs](crate::analysis#2d-convergence)).
 ///
 /// Deterministic for any thread count (pixel chunks are summed in order). Errors if the two
 /// fields differ in size; panics if `samples == 0` or `alpha ∉ (0, 1]`.

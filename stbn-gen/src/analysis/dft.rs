@@ -1,32 +1,13 @@
-//! DFT magnitude images, like Wolfe et al. 2022, Fig. 5: what a mask's spectrum looks like in a
-//! plane through the frequency volume.
+//! Centred DFT magnitude images ([`analysis`] docs, "DFT images").
 //!
-//! - **XY** ([`dft_xy_image`]): the 2D DFT of every slice (frame), averaged over slices: the
-//!   spatial spectrum. Blue noise in space shows a dark disc around the centre.
-//! - **XZ** ([`dft_xz_image`]): for every row `y`, the 2D DFT of the `width × depth` image
-//!   `v(x, y, z)` (x across, frames down), averaged over rows: horizontal frequencies are spatial
-//!   (cycles per slice width), vertical ones temporal (cycles per `depth` frames). A mask that is
-//!   blue over time is dark along the vertical axis through the centre, one that is blue in space
-//!   along the horizontal axis.
-//!
-//! Each transformed image `x` of `n` samples is normalised like the spectra of
-//! [`super::spatial_power`]: its mean is removed and the squared magnitude divided by
-//! `n · s²` (`s²` the unbiased sample variance), giving the normalised power `P(f)`. The image
-//! holds the mean over slices (or rows) of the **normalised magnitude** `√P(f)`:
-//! dimensionless, 0 at DC (the mean is removed) and about `√π / 2 ≈ 0.886` at every other
-//! frequency for white noise (`P` is exponentially distributed with mean 1 there). A constant
-//! image contributes 0 everywhere.
-//!
-//! Images are centred: the DC term is at pixel `(width / 2, height / 2)` and pixel `(i, j)`
-//! holds the signed frequency `(i − width/2, j − height/2)` (cycles per image side), so the
-//! Nyquist row and column (even sizes) are at index 0.
+//! [`analysis`]: crate::analysis#dft-images
 
 use rayon::prelude::*;
 use rustfft::FftPlanner;
 
 use super::{Field, TASKS, add_slice_spectrum, sum_in_order};
 
-/// A centred image of mean normalised DFT magnitudes ([module docs](self)).
+/// A centred image of mean normalised DFT magnitudes ([module docs](crate::analysis#dft-images)).
 #[derive(Clone, Debug, PartialEq)]
 pub struct SpectrumImage {
     /// Columns: frequencies along the image's first axis (x).

@@ -1,38 +1,7 @@
-//! EA's FAST *filtered error*: how much a mask's thresholded frames still vary after the filters a
-//! renderer applies (a spatial Gaussian, then an exponential moving average over frames).
+//! EA's FAST filtered error of thresholded frames after a spatial Gaussian and an exponential
+//! moving average ([`analysis`] docs, "Filtered error").
 //!
-//! For one Heaviside threshold `t ∈ [0, 1)` the binary image of frame `k` is
-//! `bₖ(p) = [vₖ(p) < t]` (1 where the mask value is below `t`, else 0): the coverage a renderer
-//! gets when it compares the mask with a shading value `t`. It is filtered in XY with a toroidal,
-//! separable Gaussian `G_σ` (weights `exp(−i² / (2σ²))` for `|i| ≤ ⌈4σ⌉` pixels, normalised to
-//! sum 1 per axis), then exponentially averaged over frames:
-//!
-//! ```text
-//! h₀ = G_σ * b₀,   hₖ = α · (G_σ * bₖ) + (1 − α) · hₖ₋₁
-//! ```
-//!
-//! The error of frame `k` is `hₖ` minus its spatial mean; its energy is the population spatial
-//! variance `Var(hₖ) = Σₚ (hₖ(p) − h̄ₖ)² / (W·H)`. With `K` thresholds the curve is
-//!
-//! ```text
-//! E(k) = √( Σₜ Var(hₖ) / K )
-//! ```
-//!
-//! in units of coverage (a fraction of a pixel's area, dimensionless). Lower is better; a mask
-//! that is blue in space *and* time lets both filters cancel more of the error.
-//!
-//! Thresholds are stratified and jittered per frame, as in EA's `scripts/temporal.py`: threshold
-//! `s ∈ 0..K` uses `t = (s + uₛₖ) / K` at frame `k`, with `uₛₖ` uniform in `[0, 1)` from a
-//! ChaCha8 stream seeded by [`FilteredErrorOptions::seed`].
-//!
-//! # Expected value for white noise
-//!
-//! Independent uniform values give `Var(hₖ) ≈ t(1 − t) · (Σᵢ wᵢ²)² · cₖ` with `wᵢ` the 1D kernel
-//! weights and `cₖ = (1 − α)^{2k} + α² (1 − (1 − α)^{2k}) / (1 − (1 − α)²)` the EMA's variance
-//! gain. Averaged over `t` (`E[t(1 − t)] = 1/6`), with `Σ wᵢ² ≈ 1 / (2σ√π)` and `cₖ → α / (2 − α)`:
-//! `E ≈ √(1/6 · 1/(4πσ²) · α/(2 − α)) = 0.0197` for σ = 1.3435, α = 0.1 (tested). EA publish
-//! 0.0276 for white noise at 128×128×64, √2 times more; their STBN figure (0.0051) is best
-//! compared as a ratio to white noise measured here with the same code.
+//! [`analysis`]: crate::analysis#filtered-error
 
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -73,7 +42,7 @@ impl Default for FilteredErrorOptions {
     }
 }
 
-/// The filtered error `E(k)` of every frame `k ∈ 0..depth` ([module docs](self)); the headline
+/// The filtered error `E(k)` of every frame `k ∈ 0..depth` ([module docs](crate::analysis#filtered-error)); the headline
 /// figure is the last entry.
 ///
 /// Dimensionless (coverage), `≥ 0`; 0 for a constant field. The thresholds run in parallel and

@@ -1,14 +1,7 @@
-//! How far a mask's values are from uniform: per slice (what one frame thresholds to) and per
-//! pixel (what one pixel's sequence of frames integrates with).
+//! How far a mask's values are from uniform, per slice and per pixel ([`analysis`] docs,
+//! "Histograms").
 //!
-//! - [`slice_histogram_deviation`]: the worst bin of any frame's histogram, relative to its
-//!   expected count. Void-and-cluster masks of this crate measure 0 (every slice is a
-//!   permutation of the rank grid).
-//! - [`pixel_histogram_deviation`]: the mean over pixels of the Kolmogorov–Smirnov distance
-//!   between the pixel's `D` values over the frames and the uniform distribution. Parameter-free
-//!   (no bins, which `D` values could not fill): at least `1 / (2D)` (values exactly at the
-//!   midpoints `(i + ½) / D`), about `0.87 / √D` for white noise, and in between for sequences that
-//!   stratify over time.
+//! [`analysis`]: crate::analysis#histograms
 
 use rayon::prelude::*;
 
@@ -40,7 +33,7 @@ pub fn slice_histogram_deviation(field: &Field, bins: usize) -> f64 {
 }
 
 /// The mean over pixels of the Kolmogorov–Smirnov distance of each pixel's values over the
-/// frames from the uniform distribution on `[0, 1]` ([module docs](self)).
+/// frames from the uniform distribution on `[0, 1]` ([module docs](crate::analysis#histograms)).
 ///
 /// For a pixel with sorted values `x₁ ≤ … ≤ x_D` the distance is
 /// `max over i of max(i/D − xᵢ, xᵢ − (i − 1)/D)`: the largest gap between its empirical CDF

@@ -1,5 +1,6 @@
-//! The DFT magnitude images of the report ([`stbn_gen::analysis::dft`]) as 8-bit grayscale PNGs,
-//! enlarged by an integer factor (nearest neighbour) so small masks stay visible.
+//! The DFT magnitude images of the report ([`stbn_gen::analysis::dft_xy_image`],
+//! [`stbn_gen::analysis::dft_xz_image`]) as 8-bit grayscale PNGs, enlarged by an integer factor
+//! (nearest neighbour) so small masks stay visible.
 
 use std::path::Path;
 
