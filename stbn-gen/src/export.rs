@@ -26,7 +26,7 @@ use crate::analysis::Field;
 /// # Errors
 /// The open's error, or [`io::ErrorKind::InvalidInput`] for anything but a regular file. The
 /// message does not name the path: callers add it.
-pub fn open_regular_file(path: &Path) -> io::Result<File> {
+pub(crate) fn open_regular_file(path: &Path) -> io::Result<File> {
     let mut options = fs::OpenOptions::new();
     options.read(true);
     #[cfg(unix)]
@@ -48,13 +48,16 @@ pub fn open_regular_file(path: &Path) -> io::Result<File> {
     }
 }
 
-/// Reads the whole regular file at `path` (see [`open_regular_file`]) in one pass, if it holds at
-/// most `max_bytes` bytes: the size is checked before anything is read, and again while reading
-/// (a file that grows is cut off at the limit and refused).
+/// Reads the whole file at `path` in one pass if it is a regular file (after following symbolic
+/// links; a FIFO, device, socket or folder is refused without reading from it, and on Unix the
+/// file is opened non-blocking, so a FIFO without a writer cannot stall the open either) and
+/// holds at most `max_bytes` bytes: the size is checked before anything is read, and again while
+/// reading (a file that grows is cut off at the limit and refused).
 ///
 /// # Errors
-/// As [`open_regular_file`]; a read error; [`io::ErrorKind::InvalidData`] for a file over the
-/// limit. The message does not name the path.
+/// The open's error; [`io::ErrorKind::InvalidInput`] for anything but a regular file; a read
+/// error; [`io::ErrorKind::InvalidData`] for a file over the limit. The message does not name the
+/// path: callers add it.
 pub fn read_regular_file(path: &Path, max_bytes: u64) -> io::Result<Vec<u8>> {
     let file = open_regular_file(path)?;
     let too_large = |len: u64| {
@@ -254,7 +257,7 @@ impl SliceStack {
 /// [`MaskSpec::MAX_SLICE_PIXELS`] pixels (at most 128 MiB decoded, 16-bit RGBA) is refused before
 /// its pixels are decoded, and so is a folder whose slices hold more than
 /// [`MaskSpec::MAX_PIXELS`] pixels in all (512 MiB of values). Only regular files are read
-/// ([`open_regular_file`]).
+/// (as by [`read_regular_file`]).
 pub fn read_slices_png(dir: &Path) -> Result<SliceStack, ExportError> {
     let mut slices = Vec::new();
     for path in list_pngs(dir)? {
