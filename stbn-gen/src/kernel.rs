@@ -93,7 +93,6 @@ pub struct EnergyKernel {
     max_dy: i32,
     min_dz: i32,
     max_dz: i32,
-    total: u64,
 }
 
 /// Per-axis bound on enumerated offsets, in periods: beyond two periods every wrapped offset
@@ -173,10 +172,8 @@ impl EnergyKernel {
         // `folded` iterates in (dx, dy, dz) order: regroup by row, then split each row into runs
         // of consecutive dx.
         let mut rows: BTreeMap<(i32, i32), Vec<(i32, Weight)>> = BTreeMap::new();
-        let mut total = 0u64;
         for (&(dx, dy, dz), &v) in &folded {
             let weight = to_fixed(v, scale);
-            total += weight;
             rows.entry((dz, dy))
                 .or_default()
                 .push((dx, weight as Weight));
@@ -224,7 +221,6 @@ impl EnergyKernel {
             max_dy,
             min_dz,
             max_dz,
-            total,
         }
     }
 
@@ -234,8 +230,9 @@ impl EnergyKernel {
     }
 
     /// Sum of all fixed-point weights: the energy of a pixel when every pixel is on.
-    pub fn total(&self) -> u64 {
-        self.total
+    #[cfg(test)]
+    fn total(&self) -> u64 {
+        self.weights.iter().map(|&w| u64::from(w)).sum()
     }
 
     /// Calls `visitor` for every pixel the pixel at `(x, y, z)` sends energy to, itself included:

@@ -182,15 +182,7 @@ pub fn generate_vector(
     spec: &VectorSpec,
     observer: Observer<'_>,
 ) -> Result<VectorVolume, VectorSpecError> {
-    spec.validate()?;
-    let total = 4 * (spec.swaps_per_pixel.ceil() as u64 + u64::from(spec.assignment_passes));
-    let mut observer = observer;
-    observer.report(0, total);
-    let (volume, trace) = vector::generate_vector_with_progress(spec, &mut |p| {
-        observer.report((p.passes_done * 4.0) as u64, total)
-    })?;
-    observer.finish(trace);
-    Ok(volume)
+    vector::generate(spec, observer)
 }
 
 /// Generates the scalar filter-adapted mask `spec` describes: every frame a permutation of the

@@ -240,6 +240,7 @@ pub(crate) struct Tile {
 
 impl Tile {
     /// One tile over the whole `width × height` frame, its region wrapping on both axes.
+    #[cfg(test)]
     pub(crate) fn whole(width: u32, height: u32) -> Tile {
         Tile {
             x0: 0,

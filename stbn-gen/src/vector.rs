@@ -1,11 +1,11 @@
-//! Vector masks: what to generate ([`VectorSpec`]), the generator ([`generate_vector`]) and its
-//! output ([`VectorVolume`], [`EnergyTrace`]).
+//! Vector masks: what to generate ([`VectorSpec`]), the generator ([`generate`]) and its output
+//! ([`VectorVolume`]).
 //!
 //! Each slice starts as a stratified sample set of the [`SampleSpace`]
 //! ([`SampleSpace::stratified_sampler`]), arranged as [`InitialArrangement`] says: by default
 //! sorted along a Hilbert curve of value space and handed out in the rank order of a scalar STBN
 //! mask, so similar values start far apart in space and time. The swap optimiser
-//! ([`crate::swap`]) then permutes the values within each slice to lower the spatiotemporal
+//! ([`SwapOptimizer`]) then permutes the values within each slice to lower the spatiotemporal
 //! energy of the paper's §4.2. A slice's multiset of values never changes, so every frame on its
 //! own stays a stratified sample set of the space.
 
@@ -13,21 +13,22 @@ use std::fmt;
 
 use rayon::prelude::*;
 
+use crate::observe::Observer;
 use crate::rng::{self, keyed_rng};
 use crate::space::{SampleSpace, hilbert_key};
 use crate::spec::{MaskSpec, SpecError};
-use crate::swap::{SwapConfig, SwapOptimizer};
-// The trace types are the generators' common output; they stay reachable here too.
-pub use crate::trace::{EnergyTrace, TracePoint};
+use crate::swap::{ASSIGNMENT_SET, SwapConfig, SwapOptimizer};
+use crate::trace::{EnergyTrace, TracePoint};
 
-/// How each slice's stratified values are arranged before the swaps.
+/// How each frame's stratified values are arranged before a vector or filter-adapted mask is
+/// optimised.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum InitialArrangement {
     /// A seeded random permutation per slice (white noise), as in the paper.
     Random,
-    /// The values sorted by [`hilbert_key`] and given to the pixels in the order of their per-slice
-    /// rank in the scalar STBN mask `MaskSpec::new(width, height, depth, seed)`
-    /// ([`crate::generate`]): for every threshold, the pixels holding values from one stretch of
+    /// The values sorted along a Hilbert curve of value space and given to the pixels in the
+    /// order of their per-slice rank in the scalar STBN mask `MaskSpec::new(width, height, depth,
+    /// seed)` ([`crate::generate`]): for every threshold, the pixels holding values from one stretch of
     /// the curve (one region of value space) form a blue-noise set in space and time. A much
     /// better start than white noise for the price of one scalar mask (BENCHMARKS.md).
     ScalarStbn,
@@ -43,8 +44,13 @@ impl InitialArrangement {
     }
 }
 
-/// Everything that determines a vector mask, bit for bit: equal specs give identical volumes for
-/// every thread count.
+/// Everything that determines a vector STBN mask, bit for bit: equal specs give identical volumes
+/// for every thread count ([`crate::generate_vector`]).
+///
+/// Each slice starts as a stratified sample set of [`VectorSpec::space`], arranged as
+/// [`VectorSpec::initial_arrangement`] says; the swap optimiser then permutes the values within
+/// each slice to lower the spatiotemporal energy of the paper's §4.2. A slice's multiset of
+/// values never changes, so every frame on its own stays a stratified sample set of the space.
 #[derive(Clone, Debug, PartialEq)]
 pub struct VectorSpec {
     /// Pixels per row, `1..=`[`VectorSpec::MAX_AXIS`].
@@ -69,9 +75,8 @@ pub struct VectorSpec {
     /// passes keep the initial arrangement of the stratified sets.
     pub swaps_per_pixel: f64,
     /// Assignment passes run after the swap passes, in
-    /// `0..=`[`VectorSpec::MAX_ASSIGNMENT_PASSES`]: in each, sets of
-    /// [`crate::swap::ASSIGNMENT_SET`] pixels with similar values that do not interact get the
-    /// best permutation of their values ([`crate::swap::SwapOptimizer::run_assignment_pass`]).
+    /// `0..=`[`VectorSpec::MAX_ASSIGNMENT_PASSES`]: in each, sets of up to 8 pixels with similar
+    /// values that do not interact get the best permutation of their values.
     /// One costs about as much as 5–15 swap passes, and late in a run gains more energy than
     /// they do; [`VectorSpec::DEFAULT_ASSIGNMENT_PASSES`] by default. 0 runs swaps only.
     pub assignment_passes: u32,
@@ -141,9 +146,9 @@ impl VectorSpec {
         self
     }
 
-    /// The same spec with no budget at all (no swaps, no assignment passes): [`generate_vector`]
-    /// then returns the initial arrangement of the stratified sets, the start the optimiser
-    /// would improve on.
+    /// The same spec with no budget at all (no swaps, no assignment passes):
+    /// [`crate::generate_vector`] then returns the initial arrangement of the stratified sets,
+    /// the start the optimiser would improve on.
     pub fn unoptimised(self) -> VectorSpec {
         self.with_swaps_per_pixel(0.0).with_assignment_passes(0)
     }
@@ -395,33 +400,13 @@ impl VectorVolume {
     }
 }
 
-/// Progress of one vector generation, reported after each quarter pass (one tile colour).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct VectorProgress {
-    /// Passes of the budget completed, counting quarter passes as 0.25.
-    pub passes_done: f64,
-    /// Passes the budget asks for (`⌈swaps_per_pixel⌉` swap passes, then `assignment_passes`).
-    pub passes: u64,
-    /// Swaps proposed so far.
-    pub swaps_attempted: u64,
-    /// Swaps kept so far.
-    pub swaps_accepted: u64,
-    /// The running energy.
-    pub energy: f64,
-}
-
-/// Generates the vector mask `spec` describes, with the energy after each pass.
-///
-/// Deterministic: equal specs give equal volumes and traces for every thread count.
-pub fn generate_vector(spec: &VectorSpec) -> Result<(VectorVolume, EnergyTrace), VectorSpecError> {
-    generate_vector_with_progress(spec, &mut |_| {})
-}
-
-/// [`generate_vector`], calling `progress` after each quarter pass.
-pub fn generate_vector_with_progress(
+/// The vector mask `spec` describes ([`crate::generate_vector`]), reporting quarter passes (one
+/// tile colour each) to `observer` and handing it the energy before the first pass and after
+/// each.
+pub(crate) fn generate(
     spec: &VectorSpec,
-    progress: &mut dyn FnMut(VectorProgress),
-) -> Result<(VectorVolume, EnergyTrace), VectorSpecError> {
+    mut observer: Observer<'_>,
+) -> Result<VectorVolume, VectorSpecError> {
     spec.validate()?;
     let size = (spec.width, spec.height, spec.depth);
     let values = arranged_start(size, spec.seed, &spec.space, spec.initial_arrangement)?;
@@ -433,39 +418,37 @@ pub fn generate_vector_with_progress(
             energy: optimizer.energy(),
         }],
     };
-    // ⌈swaps_per_pixel⌉ swap passes (the last one partial), then the assignment passes.
+    // ⌈swaps_per_pixel⌉ swap passes (the last one partial), then the assignment passes, each
+    // sweeping four tile colours.
     let swap_passes = spec.swaps_per_pixel.ceil() as u64;
     let passes = swap_passes + u64::from(spec.assignment_passes);
+    let quarters = 4 * passes;
+    observer.report(0, quarters);
     for pass in 0..passes {
-        let mut quarter = 0;
-        let mut report = |o: &SwapOptimizer| {
-            quarter += 1;
-            progress(VectorProgress {
-                passes_done: pass as f64 + 0.25 * f64::from(quarter),
-                passes,
-                swaps_attempted: o.swaps_attempted(),
-                swaps_accepted: o.swaps_accepted(),
-                energy: o.energy(),
-            })
+        let mut done = 4 * pass;
+        let mut report = |_: &SwapOptimizer| {
+            done += 1;
+            observer.report(done, quarters);
         };
         let point = if pass < swap_passes {
             let fraction = (spec.swaps_per_pixel - pass as f64).min(1.0);
             optimizer.run_pass(fraction, &mut report)
         } else {
-            optimizer.run_assignment_pass(crate::swap::ASSIGNMENT_SET, &mut report)
+            optimizer.run_assignment_pass(ASSIGNMENT_SET, &mut report)
         };
         trace.points.push(point);
     }
-
-    Ok((
-        VectorVolume::new(size, &spec.space, optimizer.into_values()),
-        trace,
+    observer.finish(trace);
+    Ok(VectorVolume::new(
+        size,
+        &spec.space,
+        optimizer.into_values(),
     ))
 }
 
 /// Each slice's stratified set of `space` (one random stream per slice), arranged as
 /// `arrangement` says: the start of every vector mask, of the swap optimiser
-/// ([`generate_vector`]) and of the filter-adapted one
+/// ([`generate`]) and of the filter-adapted one
 /// ([`crate::generate_filter_adapted_vector`]) alike. Index `((z · height + y) · width + x) ·
 /// dims + c`.
 pub(crate) fn arranged_start(

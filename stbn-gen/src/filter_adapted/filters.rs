@@ -221,7 +221,9 @@ impl fmt::Display for TemporalFilter {
     }
 }
 
-/// How the spatial and temporal filters combine into the pair weights ([module docs](self)).
+/// How the spatial and temporal filters combine into the pair weights `g` of
+/// [`FilterAdaptedSpec`](crate::FilterAdaptedSpec)'s energy, `g_xy` and `g_t` being the
+/// filters' autocorrelations.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum FilterCombination {
     /// The 3D product filter `g_xy · g_t`: every pair of pixels within the spatial footprint

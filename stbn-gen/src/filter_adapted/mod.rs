@@ -1,46 +1,8 @@
 //! Filter-adapted masks, after EA's FAST (*Filter-Adapted Spatiotemporal Sampling for Real-Time
 //! Rendering*, 2024): masks optimised directly for the filter that will consume them, e.g. a
 //! spatial Gaussian blur followed by a TAA-style exponential moving average, instead of for
-//! STBN's separate spatial and temporal Gaussians.
-//!
-//! # The energy
-//!
-//! A renderer that thresholds a mask (`[v < t]`, a stochastic decision) and then filters the
-//! result with `f` sees, at each threshold, the error `Σ_p (Σ_q f(p − q)([v_q < t] − m_t))²`.
-//! Expanding the square gives pair weights `g = f ⋆ f`, the filter's autocorrelation
-//! ([`SpatialFilter`], [`TemporalFilter`], [`FilterCombination`]; the `filters` module wraps,
-//! truncates and scales them to integers). Averaged over a uniform threshold `t`, the
-//! pair term is `E_t[([a < t] − t)([b < t] − t)] = 1/3 − max(a, b) + (a² + b²)/2`, in which only
-//! `−|a − b| / 2` couples the two values: swaps within a frame keep each frame's multiset, so the
-//! rest is constant. So the expected filtered error of thresholded masks is, up to constants,
-//!
-//! ```text
-//! E = Σ_{x ≠ y} g(x − y) · (−|v(x) − v(y)|)
-//! ```
-//!
-//! which is FAST's energy for real values ([`ValueKernel::Distance`], the default).
-//! [`crate::analysis::filtered_error`] measures exactly this error (with 256 stratified
-//! thresholds), so with its Gaussian and EMA as the filters the optimiser minimises the expected
-//! value of the project's own metric — with one difference: the generator wraps the EMA around
-//! the mask's frames (a mask is read toroidally in time), while the metric starts its EMA at
-//! frame 0, whose weight `(1 − α)^(frames − 1)` at the last frame is negligible for dozens of
-//! frames but not for a handful. Vector masks use the same kernel on the ranks of their
-//! projections onto a few directions ([`generate_vector`]).
-//!
-//! [`ValueKernel::Product`] instead uses `u(x)·u(y)` (centred values, dot product for vectors):
-//! the squared error of the filtered values themselves, i.e. of linear integrands. Its deltas
-//! cost `O(1)` instead of a footprint scan, but it is not the thresholded error: from the same
-//! STBN start it *raises* the filtered error of scalar masks (BENCHMARKS.md).
-//!
-//! # Generation
-//!
-//! Each frame holds an exact stratified set — scalar frames a permutation of
-//! `(i + 0.5) / (W·H)`, like every [`Volume`]; vector frames the stratified set of
-//! [`SampleSpace::stratified_sampler`] (the same set a [`crate::VectorSpec`] with the same seed
-//! starts from) — arranged as [`InitialArrangement`] says (by default from the scalar STBN mask
-//! of the same size and seed). A greedy optimiser ([`optimizer`]) then proposes swaps within
-//! frames and keeps those that lower `E`, with exact integer deltas, for
-//! [`FilterAdaptedSpec::swaps_per_pixel`] proposals per pixel.
+//! STBN's separate spatial and temporal Gaussians. [`FilterAdaptedSpec`] describes the energy
+//! and the generation.
 
 mod filters;
 pub(crate) mod optimizer;
@@ -97,6 +59,45 @@ impl ValueKernel {
 /// Rendering*, 2024) for the filter that will consume it, e.g. a spatial Gaussian blur followed by
 /// a TAA-style exponential moving average: swaps within frames lower the expected error, after
 /// the filters, of the mask thresholded at a uniform random level.
+///
+/// # The energy
+///
+/// A renderer that thresholds a mask (`[v < t]`, a stochastic decision) and then filters the
+/// result with `f` sees, at each threshold, the error `Σ_p (Σ_q f(p − q)([v_q < t] − m_t))²`.
+/// Expanding the square gives pair weights `g = f ⋆ f`, the filter's autocorrelation
+/// ([`SpatialFilter`], [`TemporalFilter`], [`FilterCombination`]; wrapped toroidally onto the
+/// mask's axes, each factor truncated at [`FilterAdaptedSpec::kernel_tolerance`] and scaled to
+/// integers). Averaged over a uniform threshold `t`, the
+/// pair term is `E_t[([a < t] − t)([b < t] − t)] = 1/3 − max(a, b) + (a² + b²)/2`, in which only
+/// `−|a − b| / 2` couples the two values: swaps within a frame keep each frame's multiset, so the
+/// rest is constant. So the expected filtered error of thresholded masks is, up to constants,
+///
+/// ```text
+/// E = Σ_{x ≠ y} g(x − y) · (−|v(x) − v(y)|)
+/// ```
+///
+/// which is FAST's energy for real values ([`ValueKernel::Distance`], the default).
+/// [`crate::analysis::filtered_error`] measures exactly this error (with 256 stratified
+/// thresholds), so with its Gaussian and EMA as the filters the optimiser minimises the expected
+/// value of the project's own metric — with one difference: the generator wraps the EMA around
+/// the mask's frames (a mask is read toroidally in time), while the metric starts its EMA at
+/// frame 0, whose weight `(1 − α)^(frames − 1)` at the last frame is negligible for dozens of
+/// frames but not for a handful. Vector masks use the same kernel on the ranks of their
+/// projections onto a few directions ([`FilterAdaptedVectorSpec`]).
+///
+/// [`ValueKernel::Product`] instead uses `u(x)·u(y)` (centred values, dot product for vectors):
+/// the squared error of the filtered values themselves, i.e. of linear integrands. Its deltas
+/// cost `O(1)` instead of a footprint scan, but it is not the thresholded error: from the same
+/// STBN start it *raises* the filtered error of scalar masks (BENCHMARKS.md).
+///
+/// # Generation
+///
+/// Each frame holds an exact stratified set — scalar frames a permutation of
+/// `(i + 0.5) / (W·H)`, like every [`Volume`]; vector frames the stratified set of the
+/// [`SampleSpace`] that a [`crate::VectorSpec`] with the same seed starts from — arranged as
+/// [`InitialArrangement`] says (by default from the scalar STBN mask of the same size and seed).
+/// A greedy optimiser then proposes swaps within frames and keeps those that lower `E`, with
+/// exact integer deltas, for [`FilterAdaptedSpec::swaps_per_pixel`] proposals per pixel.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FilterAdaptedSpec {
     /// Pixels per row, `1..=`[`MaskSpec::MAX_AXIS`].

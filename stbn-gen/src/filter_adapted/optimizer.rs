@@ -363,6 +363,7 @@ impl Optimizer {
     }
 
     /// Proposals that passed the screen (distance) so far; every proposal for the product.
+    #[cfg(test)]
     pub fn swaps_screened(&self) -> u64 {
         self.screened
     }
@@ -466,6 +467,7 @@ impl Optimizer {
 
     /// The energy of the current values computed from scratch, absolute: `O(pixels · taps)`
     /// for the distance energy (where [`Optimizer::energy`] is relative to the start).
+    #[cfg(test)]
     pub fn recompute_energy(&self) -> i128 {
         match &self.energy_state {
             Energy::Product { .. } => self.product_energy(&self.field_from_scratch()),
@@ -500,6 +502,7 @@ impl Optimizer {
 
     /// Whether the kept `φ` equals a from-scratch computation exactly (always true for the
     /// distance energy, which keeps no field).
+    #[cfg(test)]
     pub fn field_is_exact(&self) -> bool {
         match &self.energy_state {
             Energy::Product { phi, .. } => self.field_from_scratch() == *phi,
@@ -508,6 +511,7 @@ impl Optimizer {
     }
 
     /// The levels of the whole volume as [`Columns`] wrapping on both axes.
+    #[cfg(test)]
     fn whole_columns(&self) -> Columns {
         let tile = Tile::whole(self.width as u32, self.height as u32);
         match self.extract(&tile).region {
@@ -516,6 +520,7 @@ impl Optimizer {
         }
     }
 
+    #[cfg(test)]
     fn index(&self, z: u32, (x, y): (u32, u32)) -> usize {
         assert!(
             (x as usize) < self.width && (y as usize) < self.height && (z as usize) < self.depth,
@@ -526,6 +531,7 @@ impl Optimizer {
 
     /// The exact energy change of swapping the values of pixels `a` and `b` (`(x, y)`) of frame
     /// `z`. Panics outside the volume.
+    #[cfg(test)]
     pub fn swap_delta(&self, z: u32, a: (u32, u32), b: (u32, u32)) -> i128 {
         let (ia, ib) = (self.index(z, a), self.index(z, b));
         let (a, b) = ((a.0 as usize, a.1 as usize), (b.0 as usize, b.1 as usize));
@@ -550,6 +556,7 @@ impl Optimizer {
 
     /// Swaps the values of pixels `a` and `b` of frame `z` if that lowers the energy, counting
     /// one attempt; returns the accepted delta. Panics outside the volume.
+    #[cfg(test)]
     pub fn try_swap(&mut self, z: u32, a: (u32, u32), b: (u32, u32)) -> Option<i128> {
         let delta = self.swap_delta(z, a, b);
         self.attempted += 1;

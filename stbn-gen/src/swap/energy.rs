@@ -192,16 +192,6 @@ impl SwapKernel {
         }
     }
 
-    /// Same-slice neighbours of a pixel (distinct pixels, itself excluded).
-    pub fn spatial_taps(&self) -> usize {
-        self.spatial.len()
-    }
-
-    /// Same-position neighbours of a pixel in other slices.
-    pub fn temporal_taps(&self) -> usize {
-        self.temporal.len()
-    }
-
     /// Largest `|dx|` and `|dy|` of a spatial tap, in pixels.
     pub fn reach(&self) -> (u32, u32) {
         (
@@ -231,6 +221,7 @@ impl SwapKernel {
     /// slice order (deterministic).
     ///
     /// Panics if `values.len()` is not `width · height · depth · dims`.
+    #[cfg(test)]
     pub fn energy(&self, values: &[f32]) -> f64 {
         let slice = self.slice_pixels();
         let per_slice: Vec<f64> = self

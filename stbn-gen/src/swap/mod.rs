@@ -90,6 +90,8 @@ mod energy;
 mod pair;
 mod region;
 mod simd;
+#[cfg(test)]
+mod tests;
 
 pub use assignment::{ASSIGNMENT_SET, ASSIGNMENT_TILE_TARGET, MAX_ASSIGNMENT};
 pub use energy::SwapKernel;
@@ -100,6 +102,7 @@ use rayon::prelude::*;
 use crate::rng;
 use crate::schedule::{self, Layout, PassKey, SpanStart, Tile, TileOptimizer};
 use crate::trace::TracePoint;
+#[cfg(test)]
 use pair::Scratch;
 use region::Region;
 
@@ -192,8 +195,6 @@ pub struct SwapOptimizer {
     attempted: u64,
     /// Moves kept so far.
     accepted: u64,
-    /// Preferred side of a swap pass's tiles, in pixels.
-    tile_target: u32,
     /// Most partner candidates a proposal draws.
     partner_candidates: u32,
 }
@@ -226,27 +227,20 @@ impl SwapOptimizer {
             energy,
             attempted: 0,
             accepted: 0,
-            tile_target: TILE_TARGET,
             partner_candidates: PARTNER_CANDIDATES,
         }
     }
 
-    /// The same optimiser with another preferred tile side (partners are drawn within a tile,
-    /// so this also sets how far a swap can move a value in one pass). For experiments; the
-    /// default is [`TILE_TARGET`].
-    pub fn with_tile_target(mut self, pixels: u32) -> SwapOptimizer {
-        self.tile_target = pixels.max(1);
-        self
-    }
-
     /// The same optimiser drawing at most `count` partner candidates per proposal (1: a uniform
     /// partner). For experiments; the default is [`PARTNER_CANDIDATES`].
+    #[cfg(test)]
     pub fn with_partner_candidates(mut self, count: u32) -> SwapOptimizer {
         self.partner_candidates = count.max(1);
         self
     }
 
     /// The energy kernel.
+    #[cfg(test)]
     pub fn kernel(&self) -> &SwapKernel {
         &self.kernel
     }
@@ -257,12 +251,14 @@ impl SwapOptimizer {
     }
 
     /// The energy of the current values computed from scratch ([`SwapKernel::energy`]).
+    #[cfg(test)]
     pub fn recompute_energy(&self) -> f64 {
         self.kernel.energy(&self.state.values)
     }
 
     /// The largest difference between a cached pixel energy and its value computed from
     /// scratch: the rounding the incremental updates have accumulated.
+    #[cfg(test)]
     pub fn pixel_energy_drift(&self) -> f64 {
         let exact = self.kernel.pixel_energies(&self.state.values);
         exact
@@ -273,16 +269,19 @@ impl SwapOptimizer {
     }
 
     /// Swaps proposed so far.
+    #[cfg(test)]
     pub fn swaps_attempted(&self) -> u64 {
         self.attempted
     }
 
     /// Swaps kept so far.
+    #[cfg(test)]
     pub fn swaps_accepted(&self) -> u64 {
         self.accepted
     }
 
     /// A copy of the current values.
+    #[cfg(test)]
     pub fn values(&self) -> Vec<f32> {
         self.state.values.clone()
     }
@@ -293,6 +292,7 @@ impl SwapOptimizer {
     }
 
     /// Panics if pixel `(x, y)` of slice `z` is outside the volume.
+    #[cfg(test)]
     fn check_pixel(&self, (x, y): (u32, u32), z: u32) {
         assert!(
             x < self.kernel.width && y < self.kernel.height && z < self.kernel.depth,
@@ -302,6 +302,7 @@ impl SwapOptimizer {
 
     /// The exact energy change swapping the values of pixels `a` and `b` (`(x, y)`) of slice
     /// `z` would make, computed locally. Panics if a pixel is outside the volume.
+    #[cfg(test)]
     pub fn swap_delta(&self, z: u32, a: (u32, u32), b: (u32, u32)) -> f64 {
         self.check_pixel(a, z);
         self.check_pixel(b, z);
@@ -319,6 +320,7 @@ impl SwapOptimizer {
     /// the rounding margin of the [module docs](self)), counting one attempt. Returns the
     /// accepted swap's delta (negative), `None` if the values stay. Panics if a pixel is outside
     /// the volume.
+    #[cfg(test)]
     pub fn try_swap(&mut self, z: u32, a: (u32, u32), b: (u32, u32)) -> Option<f64> {
         self.check_pixel(a, z);
         self.check_pixel(b, z);
@@ -345,7 +347,7 @@ impl SwapOptimizer {
     /// Calls `after_colour` after each of the four colour phases. Returns the totals after the
     /// pass.
     pub fn run_pass(&mut self, fraction: f64, after_colour: &mut dyn FnMut(&Self)) -> TracePoint {
-        self.run_pass_with(fraction, 0, self.tile_target, after_colour)
+        self.run_pass_with(fraction, 0, TILE_TARGET, after_colour)
     }
 
     /// An assignment pass ([module docs](self)): in tiles about [`ASSIGNMENT_TILE_TARGET`]
