@@ -224,7 +224,8 @@ pub fn generate_filter_adapted(
 ///     .with_swaps_per_pixel(1.0)
 ///     .with_space(SampleSpace::CosineHemisphere);
 /// let volume = generate_filter_adapted_vector(&spec, Observer::default()).unwrap();
-/// assert!(volume.pdf().is_some());
+/// // Directions on the hemisphere around +Z.
+/// assert!(volume.values().chunks_exact(3).all(|v| v[2] >= 0.0));
 /// ```
 ///
 /// # Errors

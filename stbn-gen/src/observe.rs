@@ -13,9 +13,10 @@ use crate::EnergyTrace;
 /// use stbn_gen::{EnergyTrace, FilterAdaptedSpec, Observer, Progress};
 /// let spec = FilterAdaptedSpec::new(16, 16, 4, 7).with_swaps_per_pixel(3.0);
 /// let mut reports = Vec::new();
+/// let mut progress = |p: Progress| reports.push(p);
 /// let mut trace = EnergyTrace::default();
 /// let observer = Observer::default()
-///     .with_progress(&mut |p| reports.push(p))
+///     .with_progress(&mut progress)
 ///     .with_trace(&mut trace);
 /// stbn_gen::generate_filter_adapted(&spec, observer).unwrap();
 /// assert_eq!(reports.last(), Some(&Progress { done: 3, total: 3 }));
