@@ -30,7 +30,7 @@ fn generate_stamped(
     let mut stamps = Vec::new();
     // A pass sweeps four tile colours: a positive multiple of 4 quarter passes ends one.
     let mut progress = |p: Progress| {
-        if p.done > 0 && p.done % 4 == 0 {
+        if p.done > 0 && p.done.is_multiple_of(4) {
             stamps.push(start.elapsed().as_secs_f64());
         }
     };
