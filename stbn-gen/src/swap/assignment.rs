@@ -353,14 +353,7 @@ mod tests {
                 }
                 let dims = space.dims();
                 let slice = (w * h) as usize * dims;
-                let sorted = |v: &[f32]| {
-                    let mut bits: Vec<Vec<u32>> = v
-                        .chunks(dims)
-                        .map(|c| c.iter().map(|x| x.to_bits()).collect())
-                        .collect();
-                    bits.sort_unstable();
-                    bits
-                };
+                let sorted = |v: &[f32]| crate::swap::tests::multiset(v, dims);
                 let end = o.values();
                 for z in 0..d as usize {
                     let range = z * slice..(z + 1) * slice;

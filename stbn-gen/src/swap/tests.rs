@@ -17,20 +17,24 @@ fn generate_with_trace(spec: &VectorSpec) -> Result<(VectorVolume, EnergyTrace),
     Ok((volume, trace))
 }
 
-/// Per slice, its values' bit patterns in sorted order: the multiset a slice must keep.
+/// The bit patterns of `values` (`dims` components each) in sorted order: the multiset a slice
+/// must keep.
+pub(super) fn multiset(values: &[f32], dims: usize) -> Vec<Vec<u32>> {
+    let mut bits: Vec<Vec<u32>> = values
+        .chunks_exact(dims)
+        .map(|value| value.iter().map(|c| c.to_bits()).collect())
+        .collect();
+    bits.sort_unstable();
+    bits
+}
+
+/// Each slice's [`multiset`].
 fn multisets(volume: &VectorVolume) -> Vec<Vec<Vec<u32>>> {
     let dims = volume.dims();
     volume
         .values()
         .chunks(volume.slice_pixels() * dims)
-        .map(|slice| {
-            let mut bits: Vec<Vec<u32>> = slice
-                .chunks_exact(dims)
-                .map(|value| value.iter().map(|c| c.to_bits()).collect())
-                .collect();
-            bits.sort_unstable();
-            bits
-        })
+        .map(|slice| multiset(slice, dims))
         .collect()
 }
 
