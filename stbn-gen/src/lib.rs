@@ -44,6 +44,11 @@
 //!
 //! # Vector masks
 //!
+//! Each frame holds a stratified sample set of the spec's [`SampleSpace`], permuted to be blue
+//! in space and time. The default budget is 64 swap passes
+//! ([`VectorSpec::DEFAULT_SWAPS_PER_PIXEL`]) followed by 12 assignment passes
+//! ([`VectorSpec::DEFAULT_ASSIGNMENT_PASSES`]).
+//!
 //! ```
 //! use stbn_gen::{EnergyTrace, Observer, SampleSpace, VectorSpec, generate_vector};
 //! let spec = VectorSpec::new(16, 16, 4, 7, SampleSpace::UnitVec2).with_swaps_per_pixel(2.0);
@@ -56,6 +61,9 @@
 //! ```
 //!
 //! # Filter-adapted masks
+//!
+//! Masks optimised for the filter that consumes them (EA's FAST), scalar or, with
+//! [`FilterAdaptedSpec::with_space`], vector.
 //!
 //! ```
 //! use stbn_gen::{FilterAdaptedSpec, Observer, SampleSpace};
