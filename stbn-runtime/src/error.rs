@@ -59,59 +59,150 @@ pub enum Error {
     },
 }
 
-impl fmt::Display for Error {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match *self {
-            Self::Truncated { needed, available } => write!(
-                f,
-                "stbn blob truncated: needs {needed} bytes, only {available} available"
-            ),
-            Self::BadMagic => f.write_str("not an stbn blob: magic bytes are not \"STBN\""),
-            Self::UnsupportedVersion(v) => write!(
-                f,
-                "unsupported stbn format_version {v} (this reader supports version 1)"
-            ),
-            Self::InvalidField { field, reason } => {
-                write!(f, "invalid stbn header field `{field}`: {reason}")
+/// One piece of an [`Error`]'s message: text, or a number written in decimal.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Piece {
+    Text(&'static str),
+    Number(u64),
+}
+
+/// A message of up to [`Error::MESSAGE_PIECES`] pieces, padded with empty text.
+pub(crate) type Message = [Piece; Error::MESSAGE_PIECES];
+
+impl Error {
+    /// Pieces in the longest message.
+    pub(crate) const MESSAGE_PIECES: usize = 5;
+
+    /// The message, in pieces: what `Display` writes and, assembled in a `const` context, what
+    /// [`include_stbn!`](crate::include_stbn) fails the build with.
+    pub(crate) const fn message(&self) -> Message {
+        use Piece::{Number, Text};
+        const fn pad<const N: usize>(pieces: [Piece; N]) -> Message {
+            let mut out = [Text(""); Error::MESSAGE_PIECES];
+            let mut i = 0;
+            while i < N {
+                out[i] = pieces[i];
+                i += 1;
             }
-            Self::DecodedTooLarge => f.write_str(
+            out
+        }
+        match *self {
+            Self::Truncated { needed, available } => pad([
+                Text("stbn blob truncated: needs "),
+                Number(needed as u64),
+                Text(" bytes, only "),
+                Number(available as u64),
+                Text(" available"),
+            ]),
+            Self::BadMagic => pad([Text("not an stbn blob: magic bytes are not \"STBN\"")]),
+            Self::UnsupportedVersion(v) => pad([
+                Text("unsupported stbn format_version "),
+                Number(v as u64),
+                Text(" (this reader supports version "),
+                Number(crate::MaskHeader::FORMAT_VERSION as u64),
+                Text(")"),
+            ]),
+            Self::InvalidField { field, reason } => pad([
+                Text("invalid stbn header field `"),
+                Text(field),
+                Text("`: "),
+                Text(reason),
+            ]),
+            Self::DecodedTooLarge => pad([Text(
                 "stbn decoded size (width*height*depth*channels*bytes_per_element) \
                  overflows or exceeds MAX_DECODED_BYTES (2 GiB)",
-            ),
-            Self::HeaderChecksum => {
-                f.write_str("stbn header checksum mismatch: `header_crc32` is wrong")
-            }
-            Self::PayloadChecksum => {
-                f.write_str("stbn payload checksum mismatch: `payload_crc32` is wrong")
-            }
-            Self::PayloadLength => f.write_str(
+            )]),
+            Self::HeaderChecksum => pad([Text(
+                "stbn header checksum mismatch: `header_crc32` is wrong",
+            )]),
+            Self::PayloadChecksum => pad([Text(
+                "stbn payload checksum mismatch: `payload_crc32` is wrong",
+            )]),
+            Self::PayloadLength => pad([Text(
                 "stbn blob length does not match `payload_len`: trailing bytes after the payload",
-            ),
-            Self::Compressed => f.write_str(
+            )]),
+            Self::Compressed => pad([Text(
                 "stbn payload is compressed: a zero-copy view needs compression None; \
                  use PackedStbn::decode_into",
-            ),
-            Self::BufferTooSmall { needed, available } => write!(
-                f,
-                "decode buffer too small: needs {needed} bytes, got {available}"
-            ),
-            Self::Decompress => f.write_str("stbn payload is not a valid compressed stream"),
+            )]),
+            Self::BufferTooSmall { needed, available } => pad([
+                Text("decode buffer too small: needs "),
+                Number(needed as u64),
+                Text(" bytes, got "),
+                Number(available as u64),
+            ]),
+            Self::Decompress => pad([Text("stbn payload is not a valid compressed stream")]),
             Self::DecodedLength {
                 expected,
                 actual: Some(actual),
-            } => write!(
-                f,
-                "stbn payload decompressed to {actual} bytes, header declares {expected}"
-            ),
+            } => pad([
+                Text("stbn payload decompressed to "),
+                Number(actual as u64),
+                Text(" bytes, header declares "),
+                Number(expected as u64),
+            ]),
             Self::DecodedLength {
                 expected,
                 actual: None,
-            } => write!(
-                f,
-                "stbn payload decompresses to more than the {expected} bytes the header declares"
-            ),
+            } => pad([
+                Text("stbn payload decompresses to more than the "),
+                Number(expected as u64),
+                Text(" bytes the header declares"),
+            ]),
         }
     }
 }
 
+impl fmt::Display for Error {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for piece in self.message() {
+            match piece {
+                Piece::Text(text) => f.write_str(text)?,
+                Piece::Number(number) => write!(f, "{number}")?,
+            }
+        }
+        Ok(())
+    }
+}
+
 impl core::error::Error for Error {}
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+    use std::string::ToString;
+
+    use super::*;
+
+    #[test]
+    fn messages_write_their_numbers_in_decimal() {
+        let truncated = Error::Truncated {
+            needed: 2112,
+            available: 100,
+        };
+        assert_eq!(
+            truncated.to_string(),
+            "stbn blob truncated: needs 2112 bytes, only 100 available"
+        );
+        assert_eq!(
+            Error::UnsupportedVersion(65535).to_string(),
+            "unsupported stbn format_version 65535 (this reader supports version 2)"
+        );
+        assert_eq!(
+            Error::DecodedLength {
+                expected: 4096,
+                actual: Some(0),
+            }
+            .to_string(),
+            "stbn payload decompressed to 0 bytes, header declares 4096"
+        );
+        assert_eq!(
+            Error::InvalidField {
+                field: "width",
+                reason: "must be at least 1",
+            }
+            .to_string(),
+            "invalid stbn header field `width`: must be at least 1"
+        );
+    }
+}

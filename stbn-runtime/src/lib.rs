@@ -124,6 +124,7 @@
 #[cfg(feature = "alloc")]
 extern crate alloc;
 
+mod embed;
 mod error;
 #[cfg(feature = "wgpu")]
 pub mod gpu;
@@ -133,6 +134,9 @@ mod packed;
 mod sampler;
 mod vector;
 
+#[doc(hidden)]
+pub use embed::__private;
+pub use embed::BLOB_ALIGN;
 pub use error::Error;
 /// The glam version whose `Vec2`/`Vec3`/`Vec4` the vector samplers return.
 pub use glam;
