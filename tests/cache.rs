@@ -134,17 +134,21 @@ fn generated_module_declares_each_mask() {
     let report = project.embed("out", &project.path("cache"));
     assert_eq!(report.assets_rs, project.path("out/stbn_assets.rs"));
     let code = std::fs::read_to_string(&report.assets_rs).unwrap();
-    for (name, ty) in [("A", "Stbn"), ("B", "PackedStbn"), ("C", "PackedStbn")] {
+    for (name, ty, include) in [
+        ("A", "Stbn", "include_stbn"),
+        ("B", "PackedStbn", "include_packed_stbn"),
+        ("C", "PackedStbn", "include_packed_stbn"),
+    ] {
         assert!(
             code.contains(&format!(
-                "pub static {name}: ::stbn_runtime::{ty}<'static> =\n    match ::stbn_runtime::{ty}::from_bytes_unverified("
+                "pub static {name}: ::stbn_runtime::{ty}<'static> =\n    ::stbn_runtime::{include}!("
             )),
             "{code}"
         );
     }
     let path = project.path("out/stbn/a.stbn");
     assert!(code.contains(&format!(
-        "include_bytes_aligned!(64, {:?})",
+        "::stbn_runtime::include_stbn!({:?});",
         path.to_str().unwrap()
     )));
     assert!(code.contains("/// `b`: Blue3D mask"));

@@ -29,6 +29,8 @@
 //! * [`codegen::assets_rs`]: the module source.
 //! * [`embed`] / [`embed_with`] / [`embed_or_exit`]: all of the above for a build script.
 
+#![warn(missing_docs)]
+
 pub mod cache;
 pub mod codegen;
 mod embed;

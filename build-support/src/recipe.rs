@@ -7,7 +7,7 @@
 
 use stbn_gen::{
     BaselineKind, BaselineSpec, EnergyTrace, FilterAdaptedSpec, FilterAdaptedSpecError, MaskSpec,
-    Observer, SampleSpace, VectorSpec, VectorSpecError, VectorVolume, Volume,
+    Observer, Progress, SampleSpace, VectorSpec, VectorSpecError, VectorVolume, Volume,
 };
 use stbn_runtime::{Compression, Encoding};
 
@@ -131,36 +131,49 @@ impl Recipe {
     /// The generator's, if the spec is out of range (a parsed manifest never is); scalar errors
     /// come as [`VectorSpecError::Spec`].
     pub fn generate(&self) -> Result<Generated, VectorSpecError> {
+        self.generate_with_progress(&mut |_| {})
+    }
+
+    /// [`generate`](Self::generate), calling `progress` on the calling thread as the generator
+    /// advances, in the steps [`Progress`] lists for it (pixels ranked by void and cluster,
+    /// quarter passes of the vector swap optimiser, passes of the filter-adapted one). The result
+    /// does not depend on `progress`.
+    ///
+    /// # Errors
+    /// As [`generate`](Self::generate).
+    pub fn generate_with_progress(
+        &self,
+        progress: &mut dyn FnMut(Progress),
+    ) -> Result<Generated, VectorSpecError> {
+        let observer = Observer::default().with_progress(progress);
         Ok(match self {
-            Recipe::VoidAndCluster(spec) => {
-                Generated::Scalar(stbn_gen::generate(spec, Observer::default())?)
-            }
+            Recipe::VoidAndCluster(spec) => Generated::Scalar(stbn_gen::generate(spec, observer)?),
             Recipe::Baseline(kind, spec) => {
                 let spec = BaselineSpec {
                     kind: *kind,
                     mask: spec.clone(),
                 };
-                Generated::Scalar(stbn_gen::generate_baseline(&spec, Observer::default())?)
+                Generated::Scalar(stbn_gen::generate_baseline(&spec, observer)?)
             }
             Recipe::Vector { spec, .. } => {
                 let mut trace = EnergyTrace::default();
-                let observer = Observer::default().with_trace(&mut trace);
-                let volume = stbn_gen::generate_vector(spec, observer)?;
+                let volume = stbn_gen::generate_vector(spec, observer.with_trace(&mut trace))?;
                 Generated::Vector { volume, trace }
             }
             Recipe::FilterAdapted(recipe) => {
                 let valid = "FilterAdaptedRecipe::new checked the spec";
                 match &recipe.space {
                     None => Generated::Scalar(
-                        stbn_gen::generate_filter_adapted(&recipe.spec, Observer::default())
-                            .expect(valid),
+                        stbn_gen::generate_filter_adapted(&recipe.spec, observer).expect(valid),
                     ),
                     Some(space) => {
                         let spec = recipe.spec.clone().with_space(space.clone());
                         let mut trace = EnergyTrace::default();
-                        let observer = Observer::default().with_trace(&mut trace);
-                        let volume =
-                            stbn_gen::generate_filter_adapted_vector(&spec, observer).expect(valid);
+                        let volume = stbn_gen::generate_filter_adapted_vector(
+                            &spec,
+                            observer.with_trace(&mut trace),
+                        )
+                        .expect(valid);
                         Generated::Vector { volume, trace }
                     }
                 }
@@ -168,7 +181,25 @@ impl Recipe {
         })
     }
 
-    /// Generates the mask and encodes it as a complete `.stbn` blob.
+    /// `generated` (what this recipe generated) as a complete `.stbn` blob with `encoding` and
+    /// `compression`: the bytes [`embed`](crate::embed) writes for a manifest entry and
+    /// `stbn-gen generate --format stbn` writes for it.
+    pub fn encode(
+        &self,
+        generated: &Generated,
+        encoding: Encoding,
+        compression: Compression,
+    ) -> Vec<u8> {
+        match generated {
+            Generated::Scalar(volume) => encode_volume(volume, encoding, compression),
+            Generated::Vector { volume, .. } => {
+                encode_vector(volume, self.layout(), encoding, compression)
+            }
+        }
+    }
+
+    /// Generates the mask and encodes it as a complete `.stbn` blob
+    /// ([`generate`](Self::generate), then [`encode`](Self::encode)).
     ///
     /// # Errors
     /// As [`generate`](Self::generate).
@@ -178,12 +209,7 @@ impl Recipe {
         compression: Compression,
     ) -> Result<(Generated, Vec<u8>), VectorSpecError> {
         let generated = self.generate()?;
-        let blob = match &generated {
-            Generated::Scalar(volume) => encode_volume(volume, encoding, compression),
-            Generated::Vector { volume, .. } => {
-                encode_vector(volume, self.layout(), encoding, compression)
-            }
-        };
+        let blob = self.encode(&generated, encoding, compression);
         Ok((generated, blob))
     }
 

@@ -1,4 +1,5 @@
-//! `stbn-gen generate`: every mask of a manifest to PNG slices or KTX2 textures, with a report.
+//! `stbn-gen generate`: every mask of a manifest to PNG slices, KTX2 textures or `.stbn` blobs,
+//! with a report.
 
 use std::fs;
 use std::path::Path;
@@ -6,10 +7,10 @@ use std::time::Instant;
 
 use clap::ValueEnum;
 use indicatif::ProgressBar;
-use stbn_build_support::{Generated, Manifest, MaskEntry, Method};
+use stbn_build_support::{Generated, Manifest, MaskEntry, Method, Recipe};
+use stbn_gen::Progress;
 use stbn_gen::analysis::Field;
 use stbn_gen::export::{PngDepth, write_slices_png};
-use stbn_gen::{EnergyTrace, Observer, Progress};
 use stbn_runtime::{Encoding, PackedStbn, Space, ValueMap};
 
 use crate::report::{self, Report};
@@ -28,6 +29,10 @@ pub enum OutputFormat {
     /// `.stbn` payload bytes (R8…R8G8B8A8_UNORM, R16…_UNORM or R32…_SFLOAT), plus the same
     /// `<name>.json` sidecar for vector masks.
     Ktx2,
+    /// `<out>/<name>.stbn`: the blob `stbn-build-support` embeds for the entry (same bytes: its
+    /// encoding and compression), to commit and embed without a build script with
+    /// `stbn_runtime::include_stbn!` (`include_packed_stbn!` for a compressed mask).
+    Stbn,
 }
 
 /// Generates every mask of `manifest` into `out` in `format` (see [`OutputFormat`]), prints a
@@ -150,6 +155,11 @@ pub fn run(
                     written.push(format!("{name}_trace.csv"));
                 }
             }
+            (OutputFormat::Stbn, _) => {
+                let path = dir.join(format!("{name}.stbn"));
+                fs::write(&path, &blob).map_err(|e| format!("writing {}: {e}", path.display()))?;
+                written.push(format!("{name}.stbn"));
+            }
         }
         let row = report.measure(name, &kind, Some(seconds), &field)?;
         println!("{}", row.summary());
@@ -157,6 +167,7 @@ pub fn run(
     let written_as = match format {
         OutputFormat::Png => "PNG slices `<name>/<name>_<frame>.png`",
         OutputFormat::Ktx2 => "KTX2 3D textures `<name>.ktx2`",
+        OutputFormat::Stbn => "`.stbn` blobs `<name>.stbn` (for `stbn_runtime::include_stbn!`)",
     };
     let mut intro = format!(
         "Masks of `{}`, written as {written_as} next to this report. Vector masks are measured \
@@ -179,89 +190,67 @@ pub fn run(
     Ok(())
 }
 
-/// Generates and encodes `entry`, with a progress bar (on a terminal) for void-and-cluster masks
-/// (pixels ranked) and swap-optimised ones (passes done, fraction of the budget and time left);
-/// baselines show a spinner.
+/// Generates `entry` and encodes it as build-support does ([`Recipe::encode`]), with a progress
+/// bar (on a terminal) for void-and-cluster masks (pixels ranked) and swap-optimised ones (passes
+/// done, fraction of the budget and time left); baselines show a spinner.
 fn make(entry: &MaskEntry) -> Result<(Generated, Vec<u8>)> {
     let recipe = entry.recipe();
-    let error = |e: &dyn std::fmt::Display| format!("mask {:?}: {e}", entry.name);
+    let name = &entry.name;
     let passes_template =
         "{prefix} [{bar:40}] {percent:>3}% pass {msg} {elapsed_precise}, {eta} left";
-    let generated = if let Some((spec, space)) = entry.filter_adapted_spec() {
-        let passes = spec.swaps_per_pixel.ceil() as u64;
-        let bar = report::bar(passes, &entry.name, passes_template);
-        bar.set_message(format!("0/{passes}"));
-        let mut progress = |p: Progress| {
-            bar.set_position(p.done);
-            bar.set_message(format!("{}/{passes}", p.done));
-        };
-        let observer = Observer::default().with_progress(&mut progress);
-        let generated = match space {
-            None => Generated::Scalar(
-                stbn_gen::generate_filter_adapted(&spec, observer).map_err(|e| error(&e))?,
+    // The bar's length in progress steps and, for the swap optimisers, the steps per pass and the
+    // passes, to show the pass a step count reaches as `done/passes`.
+    let (bar, passes) = match &recipe {
+        Recipe::VoidAndCluster(spec) => (
+            report::bar(
+                spec.pixels(),
+                name,
+                "{prefix} [{bar:40}] {percent:>3}% {elapsed_precise}, {eta} left",
             ),
-            Some(space) => {
-                let mut trace = EnergyTrace::default();
-                let spec = spec.with_space(space);
-                let volume = stbn_gen::generate_filter_adapted_vector(
-                    &spec,
-                    observer.with_trace(&mut trace),
-                )
-                .map_err(|e| error(&e))?;
-                Generated::Vector { volume, trace }
-            }
-        };
-        bar.finish_and_clear();
-        generated
-    } else if let Some(spec) = entry.vector_spec() {
-        // Quarter passes: the optimiser reports after each.
-        let passes = spec.swaps_per_pixel.ceil() as u64 + u64::from(spec.assignment_passes);
-        let bar = report::bar(4 * passes, &entry.name, passes_template);
-        bar.set_message(format!("0/{passes}"));
-        let mut progress = |p: Progress| {
-            bar.set_position(p.done);
-            bar.set_message(format!("{:.2}/{passes}", p.done as f64 / 4.0));
-        };
-        let mut trace = EnergyTrace::default();
-        let observer = Observer::default()
-            .with_progress(&mut progress)
-            .with_trace(&mut trace);
-        let volume = stbn_gen::generate_vector(&spec, observer).map_err(|e| error(&e))?;
-        bar.finish_and_clear();
-        Generated::Vector { volume, trace }
-    } else if let Method::VoidAndCluster(_) = entry.kind.method() {
-        let spec = entry.spec();
-        let bar = report::bar(
-            spec.pixels(),
-            &entry.name,
-            "{prefix} [{bar:40}] {percent:>3}% {elapsed_precise}, {eta} left",
-        );
-        let mut progress = |p: Progress| bar.set_position(p.done);
-        let observer = Observer::default().with_progress(&mut progress);
-        let volume = stbn_gen::generate(&spec, observer).map_err(|e| error(&e))?;
-        bar.finish_and_clear();
-        Generated::Scalar(volume)
-    } else {
-        let spinner = ProgressBar::new_spinner().with_style(
-            indicatif::ProgressStyle::with_template("{prefix} {spinner} {elapsed_precise}")
-                .expect("the template is valid"),
-        );
-        spinner.set_prefix(entry.name.clone());
-        spinner.enable_steady_tick(std::time::Duration::from_millis(100));
-        let generated = recipe.generate().map_err(|e| error(&e))?;
-        spinner.finish_and_clear();
-        generated
-    };
-    let blob = match &generated {
-        Generated::Scalar(volume) => {
-            stbn_build_support::encode::encode_volume(volume, entry.encoding, entry.compression)
-        }
-        Generated::Vector { volume, .. } => stbn_build_support::encode::encode_vector(
-            volume,
-            recipe.layout(),
-            entry.encoding,
-            entry.compression,
+            None,
         ),
+        Recipe::Vector { spec, .. } => {
+            // Quarter passes: the optimiser reports after each.
+            let passes = spec.swaps_per_pixel.ceil() as u64 + u64::from(spec.assignment_passes);
+            (
+                report::bar(4 * passes, name, passes_template),
+                Some((4, passes)),
+            )
+        }
+        Recipe::FilterAdapted(recipe) => {
+            let passes = recipe.spec().swaps_per_pixel.ceil() as u64;
+            (
+                report::bar(passes, name, passes_template),
+                Some((1, passes)),
+            )
+        }
+        Recipe::Baseline(..) => {
+            let spinner = ProgressBar::new_spinner().with_style(
+                indicatif::ProgressStyle::with_template("{prefix} {spinner} {elapsed_precise}")
+                    .expect("the template is valid"),
+            );
+            spinner.set_prefix(name.clone());
+            spinner.enable_steady_tick(std::time::Duration::from_millis(100));
+            (spinner, None)
+        }
     };
+    if let Some((_, passes)) = passes {
+        bar.set_message(format!("0/{passes}"));
+    }
+    let mut progress = |p: Progress| {
+        bar.set_position(p.done);
+        match passes {
+            Some((1, passes)) => bar.set_message(format!("{}/{passes}", p.done)),
+            Some((steps, passes)) => {
+                bar.set_message(format!("{:.2}/{passes}", p.done as f64 / steps as f64));
+            }
+            None => {}
+        }
+    };
+    let generated = recipe
+        .generate_with_progress(&mut progress)
+        .map_err(|e| format!("mask {name:?}: {e}"))?;
+    bar.finish_and_clear();
+    let blob = recipe.encode(&generated, entry.encoding, entry.compression);
     Ok((generated, blob))
 }

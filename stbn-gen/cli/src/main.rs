@@ -1,5 +1,6 @@
-//! `stbn-gen`: generate the masks of an `assets.ron` manifest as PNG slices or KTX2 textures, or
-//! analyse folders of PNG slices, and write a quality report (`report.md`) for either.
+//! `stbn-gen`: generate the masks of an `assets.ron` manifest as PNG slices, KTX2 textures or
+//! `.stbn` blobs, or analyse folders of PNG slices, and write a quality report (`report.md`) for
+//! either.
 
 mod analyze;
 mod generate;
@@ -32,12 +33,14 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Generate every mask of a manifest: PNG slices in `<OUT>/<name>/` (or `<OUT>/<name>.ktx2`
-    /// with `--format ktx2`) and `<OUT>/report.md`.
+    /// with `--format ktx2`, `<OUT>/<name>.stbn` with `--format stbn`) and `<OUT>/report.md`.
     ///
     /// Slices are 8-bit for `Unorm8` masks and 16-bit otherwise; vector masks get RGBA slices
     /// (values in R, G, B; the pdf, or full scale, in A), a `<name>.json` sidecar describing the
-    /// channels with the optimiser's energy trace, and the trace as `<name>_trace.csv`. KTX2 files are 3D textures (depth = frames)
-    /// in the mask's own encoding and channel count (R8_UNORM … R32G32B32A32_SFLOAT).
+    /// channels with the optimiser's energy trace, and the trace as `<name>_trace.csv`. KTX2
+    /// files are 3D textures (depth = frames) in the mask's own encoding and channel count
+    /// (R8_UNORM … R32G32B32A32_SFLOAT). `.stbn` files are the blobs `stbn-build-support` embeds
+    /// for the same entries, to commit and embed with `stbn_runtime::include_stbn!`.
     Generate {
         /// The `assets.ron` manifest.
         manifest: PathBuf,

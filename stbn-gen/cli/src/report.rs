@@ -101,7 +101,7 @@ impl Row {
         Self::measure_with_progress(name, kind, seconds, field, &mut |_, _| {})
     }
 
-    /// [`Row::measure`], calling `progress(step, name)` before each of its steps and
+    /// Measures `field` (its DFT images too), calling `progress(step, name)` before each of its steps and
     /// `progress(steps, "done")` at the end (steps of [`MEASURE_STEPS`]).
     fn measure_with_progress(
         name: &str,

@@ -318,3 +318,79 @@ fn swaps_per_pixel_overrides_the_budget_of_swap_optimised_masks_only() {
         );
     }
 }
+
+#[test]
+fn stbn_blobs_are_the_bytes_build_support_embeds() {
+    let dir = tempfile::tempdir().unwrap();
+    let manifest = write_manifest(
+        dir.path(),
+        r#"(masks: [
+            (name: "scalar", kind: Scalar, size: (16, 16, 8), seed: 1, encoding: Unorm8),
+            (name: "blue2d_lz4", kind: Blue2D, size: (16, 8, 4), seed: 2, encoding: Unorm16,
+             compression: Lz4),
+            (name: "white_deflate", kind: White, size: (8, 8, 4), seed: 3, encoding: F32,
+             compression: Deflate),
+            (name: "cosine", kind: CosineHemisphere, size: (8, 8, 4), seed: 4, encoding: Unorm8,
+             swaps_per_pixel: 4),
+            (name: "fa_vec2", kind: FilterAdapted, size: (8, 8, 4), seed: 5, encoding: Unorm16,
+             space: Vec2, swaps_per_pixel: 4, compression: Lz4),
+        ])"#,
+    );
+    let out = dir.path().join("out");
+    let output = stbn_gen(&[
+        "generate".as_ref(),
+        &manifest,
+        "--out".as_ref(),
+        &out,
+        "--format".as_ref(),
+        "stbn".as_ref(),
+    ]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+
+    let embedded = stbn_build_support::embed_with(&stbn_build_support::EmbedConfig {
+        manifest,
+        out_dir: dir.path().join("embedded"),
+        cache: stbn_build_support::Cache::new(dir.path().join("cache")),
+    })
+    .unwrap();
+    assert_eq!(embedded.masks.len(), 5);
+    for mask in &embedded.masks {
+        let written = fs::read(out.join(format!("{}.stbn", mask.name))).unwrap();
+        assert_eq!(written, fs::read(&mask.blob_path).unwrap(), "{}", mask.name);
+        // Only the blob: no slice folder, no sidecar.
+        assert!(!out.join(&mask.name).exists(), "{}", mask.name);
+        assert!(
+            !out.join(format!("{}.json", mask.name)).exists(),
+            "{}",
+            mask.name
+        );
+    }
+    let report = fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(report.contains("`.stbn` blobs `<name>.stbn`"), "{report}");
+}
+
+/// The blob stbn-runtime's doctests and tests embed with `include_stbn!`: regenerating it from
+/// its manifest must give the committed bytes, or the committed file has gone stale.
+#[test]
+fn the_runtime_test_blob_is_what_generate_writes_for_its_manifest() {
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../stbn-runtime/tests/data");
+    let dir = tempfile::tempdir().unwrap();
+    let output = stbn_gen(&[
+        "generate".as_ref(),
+        &data.join("scalar_16.ron"),
+        "--out".as_ref(),
+        dir.path(),
+        "--format".as_ref(),
+        "stbn".as_ref(),
+    ]);
+    assert!(output.status.success(), "{}", text(&output.stderr));
+    let committed = fs::read(data.join("scalar_16.stbn")).unwrap();
+    assert_eq!(
+        fs::read(dir.path().join("scalar_16.stbn")).unwrap(),
+        committed,
+        "regenerate stbn-runtime/tests/data/scalar_16.stbn (and truncated.stbn, its first 100 \
+         bytes) with `stbn-gen generate stbn-runtime/tests/data/scalar_16.ron --format stbn`"
+    );
+    let truncated = fs::read(data.join("truncated.stbn")).unwrap();
+    assert_eq!(truncated, committed[..100]);
+}
