@@ -11,7 +11,7 @@
 //! stbn_build_support::embed_or_exit("assets.ron");
 //! ```
 //!
-//! The crate (which depends on `stbn-runtime` and `include_bytes_aligned`):
+//! The crate (which depends on `stbn-runtime` only):
 //! ```ignore
 //! pub mod masks {
 //!     include!(concat!(env!("OUT_DIR"), "/stbn_assets.rs"));

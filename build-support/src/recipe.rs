@@ -213,7 +213,7 @@ impl Recipe {
         Ok((generated, blob))
     }
 
-    /// `(width, height, depth)` of the mask.
+    /// `(width, height, depth)` of the mask, in pixels, pixels and frames.
     pub fn size(&self) -> (u32, u32, u32) {
         match self {
             Recipe::VoidAndCluster(spec) | Recipe::Baseline(_, spec) => {

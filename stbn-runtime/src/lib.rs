@@ -1,13 +1,62 @@
 //! `no_std` sampler for embedded spatiotemporal blue-noise (STBN) masks.
 //!
-//! A mask is a `width × height × depth` torus of 1–4 channel values stored in a
-//! `.stbn` blob: a 64-byte [`MaskHeader`] followed by the payload, optionally
-//! LZ4- or Deflate-compressed. Blobs are meant to be embedded with
-//! `include_bytes!` and sampled with no allocation:
+//! A mask is a `width × height × depth` torus of 1–4 channel values (a value per pixel per
+//! frame), declared once in a manifest, `assets.ron`:
+//!
+//! ```ron
+//! (masks: [(name: "scalar_64", kind: Scalar, size: (64, 64, 32), seed: 7, encoding: Unorm8)])
+//! ```
+//!
+//! # Two ways to embed a mask
+//!
+//! **Generated in `build.rs`**: declare and forget. `Cargo.toml` lists `stbn-runtime` under
+//! `[dependencies]` and `stbn-build-support` under `[build-dependencies]`; `build.rs` is one line
+//! and the crate includes one `pub static` per mask:
+//!
+//! ```ignore
+//! // build.rs
+//! fn main() {
+//!     stbn_build_support::embed_or_exit("assets.ron");
+//! }
+//!
+//! // src/lib.rs: `pub static SCALAR_64: Stbn<'static>` (`PackedStbn` when compressed)
+//! mod masks {
+//!     include!(concat!(env!("OUT_DIR"), "/stbn_assets.rs"));
+//! }
+//! let threshold = masks::SCALAR_64.sample(x, y, frame);
+//! ```
+//!
+//! **Committed blobs**: no generator in the build. Generate the masks once, review
+//! `assets/report.md`, commit the `.stbn` files and embed them with [`include_stbn!`] (or
+//! [`include_packed_stbn!`] for compressed ones); `stbn-runtime` is the only dependency:
+//!
+//! ```sh
+//! stbn-gen generate assets.ron --format stbn --out assets/
+//! ```
+//! ```
+//! use stbn_runtime::{Stbn, include_stbn};
+//!
+//! // `assets/scalar_64.stbn` in a game; here the 16×16×8 mask in this crate's tests/data.
+//! static SCALAR_16: Stbn<'static> = include_stbn!("../tests/data/scalar_16.stbn");
+//!
+//! let threshold = SCALAR_16.sample(100, -3, 1_000_000);
+//! assert!(threshold > 0.0 && threshold < 1.0);
+//! ```
+//!
+//! Both give the same bytes and the same statics, checked while compiling: a broken blob fails
+//! the build. Pick `build.rs` to edit the manifest and rebuild (masks are cached across builds and
+//! regenerated only when their entry changes, but every clean build compiles the generator);
+//! pick committed blobs to keep the generator out of the build and CI entirely, with masks that
+//! change only when someone regenerates and reviews them.
+//!
+//! # The format
+//!
+//! A `.stbn` blob is a 64-byte [`MaskHeader`] followed by the payload, optionally LZ4- or
+//! Deflate-compressed. It is sampled with no allocation:
 //!
 //! * [`Stbn`] is the sampling view over decoded data. For an uncompressed blob it
 //!   is zero-copy and can be built in a `static` with the `const fn`
-//!   [`Stbn::from_bytes_unverified`].
+//!   [`Stbn::from_bytes_unverified`] (what [`include_stbn!`] does).
 //! * [`PackedStbn`] validates a blob of any compression and decodes it into a
 //!   caller-provided buffer ([`PackedStbn::decode_into`]) or, with the `alloc`
 //!   feature, into an `OwnedStbn`.
@@ -42,9 +91,8 @@
 //! use stbn_runtime::glam::Vec3;
 //! use stbn_runtime::{Compression, Encoding, MaskHeader, SampleOffset, Space, Stbn, ValueMap};
 //!
-//! // Real code embeds a file written by the generator, e.g.
-//! //     static BYTES: &[u8] = include_bytes!("../assets/scalar_64.stbn");
-//! // Here the same kind of blob, a 4×2×2 one-channel Unorm8 mask, is built in const.
+//! // Real code embeds a file written by the generator (see above). Here the same kind of
+//! // blob, a 4×2×2 one-channel Unorm8 mask, is built in const.
 //! const HEADER: MaskHeader = MaskHeader {
 //!     width: 4,
 //!     height: 2,
