@@ -1,5 +1,5 @@
-//! A blob assembled in const context and validated into a `static Stbn`, exactly
-//! as generated embedding code does.
+//! A blob assembled in const context and validated into a `static Stbn`, as
+//! `include_stbn!` does with a file.
 
 use stbn_runtime::{Compression, Encoding, Error, MaskHeader, PackedStbn, Space, Stbn, ValueMap};
 
