@@ -158,7 +158,7 @@ impl Cache {
         let key = CacheKey::new(recipe, encoding, compression);
         let path = self.entry_path(&key);
         let mut warnings = Vec::new();
-        let read = stbn_gen::export::read_regular_file(&path, max_entry_len(recipe, encoding));
+        let read = stbn_gen::file::read_regular_file(&path, max_entry_len(recipe, encoding));
         let status = match read {
             Ok(entry) => match verify_entry(&entry, &key, recipe, encoding, compression) {
                 Ok(()) => {

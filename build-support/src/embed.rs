@@ -171,7 +171,7 @@ pub fn embed_with(config: &EmbedConfig) -> Result<EmbedReport, Error> {
 /// Writes `bytes` to `path` unless it already holds exactly them (only a regular file no longer
 /// than `bytes` is read to compare).
 fn write_if_changed(path: &Path, bytes: &[u8]) -> Result<(), Error> {
-    let old = stbn_gen::export::read_regular_file(path, bytes.len() as u64);
+    let old = stbn_gen::file::read_regular_file(path, bytes.len() as u64);
     if old.is_ok_and(|old| old == bytes) {
         return Ok(());
     }

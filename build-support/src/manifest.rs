@@ -381,7 +381,7 @@ impl Manifest {
         let path = path.as_ref();
         let read_error = |e| Error::io("read the manifest", path, e);
         let bytes =
-            stbn_gen::export::read_regular_file(path, Self::MAX_FILE_BYTES).map_err(read_error)?;
+            stbn_gen::file::read_regular_file(path, Self::MAX_FILE_BYTES).map_err(read_error)?;
         let text = String::from_utf8(bytes).map_err(|e| {
             let at = e.utf8_error().valid_up_to();
             read_error(std::io::Error::new(
@@ -842,8 +842,9 @@ fn applies_to(field: &str) -> &'static str {
 
 /// Reads (once: a regular file within [`ImagePdf::MAX_FILE_BYTES`]) and checks the image at
 /// `path`; the error message names the file.
+#[cfg(feature = "images")]
 fn load_image(path: &Path) -> Result<ImageSource, String> {
-    let bytes = stbn_gen::export::read_regular_file(path, ImagePdf::MAX_FILE_BYTES)
+    let bytes = stbn_gen::file::read_regular_file(path, ImagePdf::MAX_FILE_BYTES)
         .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
     let pdf = ImagePdf::decode(path, &bytes).map_err(|e| e.to_string())?;
     Ok(ImageSource {
@@ -851,6 +852,18 @@ fn load_image(path: &Path) -> Result<ImageSource, String> {
         hash: blake3::hash(&bytes),
         pdf: Arc::new(pdf),
     })
+}
+
+/// Without the `images` feature no image is read: the error says which feature to enable.
+#[cfg(not(feature = "images"))]
+fn load_image(path: &Path) -> Result<ImageSource, String> {
+    Err(format!(
+        "reading {} needs the `images` feature of stbn-build-support; enable it where the \
+         build script depends on it: `stbn-build-support = {{ version = \"{}\", features = \
+         [\"images\"] }}` under `[build-dependencies]`",
+        path.display(),
+        env!("CARGO_PKG_VERSION")
+    ))
 }
 
 /// Deserialises [`stbn_runtime::Encoding`], which has no serde support of its own.
@@ -1156,6 +1169,37 @@ mod tests {
             encoding: Unorm8,
 "#;
         format!("{head}{fields}        ),\n    ],\n)\n")
+    }
+
+    /// Without the `images` feature an image kind is refused at its `image` field, naming the
+    /// feature; with it, the file is read (here: not a decodable PNG).
+    #[test]
+    fn image_kinds_need_the_images_feature() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("sky.png"), b"not a png").unwrap();
+        let text = manifest("            image: \"sky.png\",\n")
+            .replace("kind: Scalar", "kind: EnvironmentMap");
+        let path = dir.path().join("assets.ron");
+        let error = Manifest::parse(&text, &path).unwrap_err();
+        assert_eq!(error.path(), path);
+        assert_eq!((error.line(), error.column()), (9, 20), "{error}");
+        assert_eq!(error.field(), Some("image"));
+        let image = dir.path().join("sky.png");
+        if cfg!(feature = "images") {
+            assert!(error.message().contains("sky.png"), "{error}");
+            assert!(!error.message().contains("feature"), "{error}");
+        } else {
+            assert_eq!(
+                error.message(),
+                format!(
+                    "reading {} needs the `images` feature of stbn-build-support; enable it \
+                     where the build script depends on it: `stbn-build-support = {{ version = \
+                     \"{}\", features = [\"images\"] }}` under `[build-dependencies]`",
+                    image.display(),
+                    env!("CARGO_PKG_VERSION")
+                )
+            );
+        }
     }
 
     #[test]

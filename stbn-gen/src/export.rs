@@ -12,71 +12,13 @@
 
 use std::collections::BTreeMap;
 use std::fmt;
-use std::fs::{self, File};
-use std::io::{self, BufReader, Read as _};
+use std::fs;
+use std::io::BufReader;
 use std::path::{Path, PathBuf};
 
 use crate::MaskSpec;
 use crate::analysis::Field;
-
-/// Opens `path` for reading if it is a regular file (after following symbolic links). A FIFO,
-/// device, socket or folder is refused without reading from it; on Unix the file is opened
-/// non-blocking, so a FIFO without a writer cannot stall the open either.
-///
-/// # Errors
-/// The open's error, or [`io::ErrorKind::InvalidInput`] for anything but a regular file. The
-/// message does not name the path: callers add it.
-pub(crate) fn open_regular_file(path: &Path) -> io::Result<File> {
-    let mut options = fs::OpenOptions::new();
-    options.read(true);
-    #[cfg(unix)]
-    std::os::unix::fs::OpenOptionsExt::custom_flags(&mut options, libc::O_NONBLOCK);
-    let file = options.open(path)?;
-    let kind = file.metadata()?.file_type();
-    if kind.is_file() {
-        Ok(file)
-    } else {
-        let what = if kind.is_dir() {
-            "a folder"
-        } else {
-            "a FIFO, device or socket"
-        };
-        Err(io::Error::new(
-            io::ErrorKind::InvalidInput,
-            format!("is {what}, not a regular file"),
-        ))
-    }
-}
-
-/// Reads the whole file at `path` in one pass if it is a regular file (after following symbolic
-/// links; a FIFO, device, socket or folder is refused without reading from it, and on Unix the
-/// file is opened non-blocking, so a FIFO without a writer cannot stall the open either) and
-/// holds at most `max_bytes` bytes: the size is checked before anything is read, and again while
-/// reading (a file that grows is cut off at the limit and refused).
-///
-/// # Errors
-/// The open's error; [`io::ErrorKind::InvalidInput`] for anything but a regular file; a read
-/// error; [`io::ErrorKind::InvalidData`] for a file over the limit. The message does not name the
-/// path: callers add it.
-pub fn read_regular_file(path: &Path, max_bytes: u64) -> io::Result<Vec<u8>> {
-    let file = open_regular_file(path)?;
-    let too_large = |len: u64| {
-        io::Error::new(
-            io::ErrorKind::InvalidData,
-            format!("is {len} bytes, over the limit of {max_bytes} bytes"),
-        )
-    };
-    let len = file.metadata()?.len();
-    if len > max_bytes {
-        return Err(too_large(len));
-    }
-    let mut bytes = Vec::with_capacity(len as usize);
-    file.take(max_bytes + 1).read_to_end(&mut bytes)?;
-    if bytes.len() as u64 > max_bytes {
-        return Err(too_large(bytes.len() as u64));
-    }
-    Ok(bytes)
-}
+use crate::file::open_regular_file;
 
 /// Bits per PNG sample.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -257,7 +199,7 @@ impl SliceStack {
 /// [`MaskSpec::MAX_SLICE_PIXELS`] pixels (at most 128 MiB decoded, 16-bit RGBA) is refused before
 /// its pixels are decoded, and so is a folder whose slices hold more than
 /// [`MaskSpec::MAX_PIXELS`] pixels in all (512 MiB of values). Only regular files are read
-/// (as by [`read_regular_file`]).
+/// (as by [`read_regular_file`](crate::file::read_regular_file)).
 pub fn read_slices_png(dir: &Path) -> Result<SliceStack, ExportError> {
     let mut slices = Vec::new();
     for path in list_pngs(dir)? {
@@ -578,7 +520,7 @@ mod tests {
     #[test]
     fn reads_the_red_channel_of_colour_images() {
         let dir = tempfile::tempdir().unwrap();
-        let file = File::create(dir.path().join("rgb_0.png")).unwrap();
+        let file = fs::File::create(dir.path().join("rgb_0.png")).unwrap();
         let mut encoder = png::Encoder::new(std::io::BufWriter::new(file), 2, 1);
         encoder.set_color(png::ColorType::Rgba);
         let mut writer = encoder.write_header().unwrap();
@@ -676,16 +618,6 @@ mod tests {
         let message = read_slices_png(dir.path()).unwrap_err().to_string();
         assert!(message.contains("pipe_0.png"), "{message}");
         assert!(message.contains("not a regular file"), "{message}");
-        let error = read_regular_file(dir.path(), 10).unwrap_err();
-        assert!(error.to_string().contains("a folder"), "{error}");
-        let file = dir.path().join("eleven");
-        fs::write(&file, b"eleven byte").unwrap();
-        assert_eq!(read_regular_file(&file, 11).unwrap(), b"eleven byte");
-        let error = read_regular_file(&file, 10).unwrap_err();
-        assert!(
-            error.to_string().contains("over the limit of 10"),
-            "{error}"
-        );
     }
 
     /// The error of reading `dir` after `damage`, checked to name `culprit`.

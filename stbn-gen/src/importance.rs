@@ -3,12 +3,15 @@
 
 use std::f64::consts::{PI, TAU};
 use std::fmt;
+#[cfg(feature = "images")]
 use std::io::Cursor;
 use std::path::{Path, PathBuf};
 
+#[cfg(feature = "images")]
 use image::{DynamicImage, ImageDecoder, ImageFormat, ImageReader};
 
 /// Rec. 709 luminance weights of linear `(R, G, B)`.
+#[cfg(feature = "images")]
 const LUMINANCE_WEIGHTS: [f32; 3] = [0.2126, 0.7152, 0.0722];
 
 /// An image's luminance as a density over `[0, 1)²` or over directions: the image of
@@ -85,6 +88,7 @@ impl ImagePdf {
     /// a regular file or is larger than [`ImagePdf::MAX_FILE_BYTES`] (checked before reading), it
     /// is larger than [`ImagePdf::MAX_PIXELS`] (checked before decoding the pixels), or its
     /// luminance is invalid as in [`ImagePdf::from_luminance`].
+    #[cfg(feature = "images")]
     pub fn load(path: &Path) -> Result<ImagePdf, ImageError> {
         format_of(path)?;
         Self::decode(path, &Self::read_file(path)?)
@@ -93,7 +97,7 @@ impl ImagePdf {
     /// The bytes of the image file at `path`, read once: only a regular file (not a FIFO, device
     /// or folder) of at most [`ImagePdf::MAX_FILE_BYTES`] bytes, checked before reading.
     pub fn read_file(path: &Path) -> Result<Vec<u8>, ImageError> {
-        crate::export::read_regular_file(path, Self::MAX_FILE_BYTES).map_err(|e| {
+        crate::file::read_regular_file(path, Self::MAX_FILE_BYTES).map_err(|e| {
             ImageError::Unreadable {
                 path: path.to_path_buf(),
                 message: e.to_string(),
@@ -104,6 +108,7 @@ impl ImagePdf {
     /// The pdf of the image file `path` whose contents are `bytes` (from
     /// [`ImagePdf::read_file`]); the extension picks the format, and errors name `path`, as in
     /// [`ImagePdf::load`].
+    #[cfg(feature = "images")]
     pub fn decode(path: &Path, bytes: &[u8]) -> Result<ImagePdf, ImageError> {
         let owned = || path.to_path_buf();
         let format = format_of(path)?;
@@ -357,6 +362,7 @@ fn pixel_solid_angle(width: u32, height: u32, y: u32) -> f64 {
 }
 
 /// The sRGB transfer function's inverse: encoded `c ∈ [0, 1]` to linear.
+#[cfg(feature = "images")]
 fn srgb_to_linear(c: f32) -> f32 {
     if c <= 0.040_45 {
         c / 12.92
@@ -366,6 +372,7 @@ fn srgb_to_linear(c: f32) -> f32 {
 }
 
 /// The format of `path`, from its extension: `.png` or `.hdr` (any case).
+#[cfg(feature = "images")]
 fn format_of(path: &Path) -> Result<ImageFormat, ImageError> {
     let extension = path
         .extension()
@@ -632,6 +639,7 @@ mod tests {
         assert_eq!(ImagePdf::direction(0.0, 0.0)[1], 1.0, "+Y is up");
     }
 
+    #[cfg(feature = "images")]
     #[test]
     fn srgb_decoding_endpoints() {
         assert_eq!(srgb_to_linear(0.0), 0.0);

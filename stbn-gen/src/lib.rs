@@ -17,10 +17,21 @@
 //! thread count, and [`GENERATOR_VERSION`] names the output. A spec out of range is refused
 //! before anything is allocated, with an error that names the field.
 //!
-//! Three modules hold what is not a generator: [`analysis`] (spectral, histogram, filtered-error
+//! Four modules hold what is not a generator: [`analysis`] (spectral, histogram, filtered-error
 //! and convergence measures of scalar fields), [`baselines`] (value-field baselines and the
-//! comparison set the reports measure) and [`export`] (grayscale PNG slices). Encoding,
-//! compression and embedding live in `stbn-build-support`; sampling in `stbn-runtime`.
+//! comparison set the reports measure), [`export`] (grayscale PNG slices) and [`file`] (bounded
+//! reads of regular files). Encoding, compression and embedding live in `stbn-build-support`;
+//! sampling in `stbn-runtime`.
+//!
+//! # Features
+//!
+//! The generators need none: a build script that generates masks compiles only them. All are
+//! off by default.
+//!
+//! | feature | adds | dependencies |
+//! | --- | --- | --- |
+//! | `analysis` | the [`analysis`] module | `rustfft` |
+//! | `images` | [`ImagePdf::load`] and [`ImagePdf::decode`] (PNG and Radiance `.hdr`); with `analysis`, the [`export`] module | `image`, `png` |
 //!
 //! # Scalar masks
 //!
@@ -76,12 +87,16 @@
 //! ```
 
 #![warn(missing_docs)]
+#![cfg_attr(docsrs, feature(doc_cfg))]
 
+#[cfg(feature = "analysis")]
 pub mod analysis;
 pub mod baselines;
+#[cfg(all(feature = "analysis", feature = "images"))]
 pub mod export;
 mod extremum;
 mod fastmath;
+pub mod file;
 mod filter_adapted;
 mod importance;
 mod kernel;

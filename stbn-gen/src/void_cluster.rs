@@ -494,6 +494,7 @@ mod tests {
         assert_ne!(a, b);
     }
 
+    #[cfg(feature = "analysis")]
     #[test]
     fn reranking_slices_costs_almost_no_blueness() {
         use crate::Volume;
