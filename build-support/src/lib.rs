@@ -19,6 +19,32 @@
 //! let value = masks::SCALAR_64.sample(x, y, frame);
 //! ```
 //!
+//! Cargo.toml, with the profile that makes generation fast (unoptimised, or with debug
+//! assertions and overflow checks on, it is up to 30× slower; [`embed`] warns when it is):
+//! ```toml
+//! [build-dependencies]
+//! stbn-build-support = "0.1"
+//!
+//! [profile.dev.build-override]
+//! opt-level = 3
+//! debug-assertions = false
+//! overflow-checks = false
+//!
+//! [profile.release.build-override]
+//! opt-level = 3
+//! debug-assertions = false
+//! overflow-checks = false
+//! ```
+//!
+//! # Features
+//!
+//! None is on by default: a build script compiles the generators, the encoder, the cache and
+//! the code generator, and no image codec, spectral analysis or plotting.
+//!
+//! * `images`: the image kinds (`ImagePoints`, `EnvironmentMap`), which read PNG and Radiance
+//!   `.hdr` files. Without it a manifest that declares one fails at its `image` field, naming
+//!   the feature.
+//!
 //! # Pieces
 //!
 //! * [`Manifest::load`] / [`Manifest::parse`]: the validated list of [`MaskEntry`]s; every error is
