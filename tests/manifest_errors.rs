@@ -80,6 +80,60 @@ const CASES: &[Case] = &[
         message: "unknown field; expected one of `name`, `kind`, `size`, `seed`, `sigma`",
     },
     Case {
+        what: "misspelt field",
+        line: 16,
+        replacement: "            densty: 0.1,",
+        at: (16, 13),
+        field: Some("densty"),
+        mask: Some("foo"),
+        message: "; did you mean `density`?",
+    },
+    Case {
+        what: "field with swapped letters",
+        line: 18,
+        replacement: "            compresison: Lz4,",
+        at: (18, 13),
+        field: Some("compresison"),
+        mask: Some("foo"),
+        message: "; did you mean `compression`?",
+    },
+    Case {
+        what: "field in another case",
+        line: 12,
+        replacement: "            Sigma: 1.9,",
+        at: (12, 13),
+        field: Some("Sigma"),
+        mask: Some("foo"),
+        message: "; did you mean `sigma`?",
+    },
+    Case {
+        what: "misspelt top-level field",
+        line: 2,
+        replacement: "    mask: [",
+        at: (2, 5),
+        field: Some("mask"),
+        mask: None,
+        message: "unknown field; expected one of `masks`; did you mean `masks`?",
+    },
+    Case {
+        what: "misspelt kind",
+        line: 13,
+        replacement: "            kind: Scalr,",
+        at: (13, 19),
+        field: Some("kind"),
+        mask: Some("foo"),
+        message: "; did you mean `Scalar`?",
+    },
+    Case {
+        what: "misspelt compression",
+        line: 18,
+        replacement: "            compression: LZ4,",
+        at: (18, 26),
+        field: Some("compression"),
+        mask: Some("foo"),
+        message: "; did you mean `Lz4`?",
+    },
+    Case {
         what: "unknown top-level field",
         line: 2,
         replacement: "    maskz: [",
@@ -293,6 +347,33 @@ fn each_mistake_is_located_and_named() {
         }
     }
     assert!(failures.is_empty(), "\n{}", failures.join("\n"));
+}
+
+#[test]
+fn no_suggestion_for_a_name_far_from_every_field() {
+    let err = error(&edit(16, "            flavour: 0.1,"));
+    assert_eq!((err.line(), err.field()), (16, Some("flavour")));
+    assert!(
+        err.message()
+            .starts_with("unknown field; expected one of `name`")
+    );
+    assert!(!err.message().contains("did you mean"), "{err}");
+    let err = error(&edit(13, "            kind: Noise,"));
+    assert_eq!((err.line(), err.field()), (13, Some("kind")));
+    assert!(!err.message().contains("did you mean"), "{err}");
+}
+
+#[test]
+fn misspelt_field_names_file_line_field_and_the_fix() {
+    let err = error(&edit(16, "            densty: 0.1,"));
+    assert_eq!(
+        err.to_string(),
+        "assets.ron:16:13: mask \"foo\", field `densty`: unknown field; expected one of `name`, \
+         `kind`, `size`, `seed`, `sigma`, `sigma_time`, `density`, `kernel_tolerance`, \
+         `sigma_value`, `swaps_per_pixel`, `assignment_passes`, `image`, `octahedral`, \
+         `spatial_filter`, `temporal_filter`, `filter_combination`, `space`, `encoding`, \
+         `compression`; did you mean `density`?"
+    );
 }
 
 #[test]

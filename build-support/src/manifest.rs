@@ -47,8 +47,10 @@
 //!
 //! Unknown fields are errors, and so are fields that do not apply to the mask's kind (`density`
 //! on a vector mask, `image` on a scalar one, a filter on anything but `FilterAdapted`). Optional fields may also be written `Some(…)`.
-//! Every error names the file, line, column and field ([`ManifestError`]); image files are read
-//! and checked (NaN, infinite, negative or all-zero luminance) while the manifest is parsed.
+//! Every error names the file, line, column and field ([`ManifestError`]), and a misspelt field
+//! or variant name comes with the closest valid one; image files are read and checked (NaN,
+//! infinite, negative or all-zero luminance) while the manifest is parsed, which needs the
+//! crate's `images` feature.
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -1040,7 +1042,11 @@ impl Source<'_> {
                 expected, found, ..
             } => (
                 Some(found.clone()),
-                format!("unknown field; expected one of {}", backticked(expected)),
+                format!(
+                    "unknown field; expected one of {}{}",
+                    backticked(expected),
+                    did_you_mean(found, expected)
+                ),
             ),
             E::MissingStructField { field, .. } => (
                 Some((*field).to_owned()),
@@ -1085,6 +1091,11 @@ impl Source<'_> {
                     field.as_deref().and_then(enum_variants),
                 ) {
                     format!("expected one of {variants} ({ron_message})")
+                } else if let E::NoSuchEnumVariant {
+                    expected, found, ..
+                } = code
+                {
+                    format!("{ron_message}{}", did_you_mean(found, expected))
                 } else {
                     ron_message
                 };
@@ -1122,6 +1133,51 @@ fn enum_variants(field: &str) -> Option<&'static str> {
         "compression" => Some("`None`, `Lz4`, `Deflate`"),
         _ => None,
     }
+}
+
+/// `` "; did you mean `name`?" `` for the candidate closest to the misspelt `found`, or `""` when
+/// none is close: the same name in another case, or else the nearest within an edit distance of
+/// a third of `found`'s length (at least 1; an edit inserts, deletes, replaces or swaps two
+/// neighbouring characters). Ties go to the earlier candidate.
+fn did_you_mean(found: &str, candidates: &[&str]) -> String {
+    let lower = found.to_lowercase();
+    let limit = (found.chars().count() / 3).max(1);
+    let closest = candidates
+        .iter()
+        .find(|c| c.to_lowercase() == lower)
+        .or_else(|| {
+            candidates
+                .iter()
+                .map(|c| (edit_distance(&lower, &c.to_lowercase()), c))
+                .filter(|&(distance, _)| distance <= limit)
+                .min_by_key(|&(distance, _)| distance)
+                .map(|(_, c)| c)
+        });
+    closest.map_or_else(String::new, |c| format!("; did you mean `{c}`?"))
+}
+
+/// The optimal string alignment distance between `a` and `b`, in characters: the fewest
+/// insertions, deletions, replacements and swaps of neighbouring characters that turn one into
+/// the other (no substring edited twice).
+fn edit_distance(a: &str, b: &str) -> usize {
+    let (a, b): (Vec<char>, Vec<char>) = (a.chars().collect(), b.chars().collect());
+    // rows[i][j]: distance between a[..i] and b[..j]; three rows are all the recurrence reads.
+    let mut before: Vec<usize> = Vec::new();
+    let mut previous: Vec<usize> = (0..=b.len()).collect();
+    for i in 1..=a.len() {
+        let mut row = vec![i; b.len() + 1];
+        for j in 1..=b.len() {
+            let replace = usize::from(a[i - 1] != b[j - 1]);
+            row[j] = (previous[j] + 1)
+                .min(row[j - 1] + 1)
+                .min(previous[j - 1] + replace);
+            if i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1] {
+                row[j] = row[j].min(before[j - 2] + 1);
+            }
+        }
+        before = std::mem::replace(&mut previous, row);
+    }
+    previous[b.len()]
 }
 
 /// `` `a`, `b`, `c` ``.
@@ -1329,6 +1385,54 @@ mod tests {
         let e = Manifest::parse(&manifest("            space: Vec2,\n"), "m.ron").unwrap_err();
         assert_eq!((e.field(), e.line()), (Some("space"), 9));
         assert!(e.message().contains("(it applies to FilterAdapted)"), "{e}");
+    }
+
+    #[test]
+    fn edit_distances() {
+        for (a, b, distance) in [
+            ("", "", 0),
+            ("", "seed", 4),
+            ("seed", "seed", 0),
+            ("densty", "density", 1),
+            ("dencity", "density", 1),
+            ("sede", "seed", 1),
+            ("compresison", "compression", 1),
+            ("kitten", "sitting", 3),
+            ("ca", "abc", 3),
+            ("σ", "s", 1),
+        ] {
+            assert_eq!(edit_distance(a, b), distance, "{a} → {b}");
+            assert_eq!(edit_distance(b, a), distance, "{b} → {a}");
+        }
+    }
+
+    #[test]
+    fn suggestions() {
+        let fields = ["sigma", "sigma_time", "seed", "size"];
+        assert_eq!(
+            did_you_mean("sigma_tme", &fields),
+            "; did you mean `sigma_time`?"
+        );
+        assert_eq!(did_you_mean("SIGMA", &fields), "; did you mean `sigma`?");
+        assert_eq!(did_you_mean("sized", &fields), "; did you mean `size`?");
+        // Ties go to the earlier candidate.
+        assert_eq!(
+            did_you_mean("bat", &["cat", "bag"]),
+            "; did you mean `cat`?"
+        );
+        assert_eq!(
+            did_you_mean("bat", &["bag", "cat"]),
+            "; did you mean `bag`?"
+        );
+        assert_eq!(did_you_mean("sed", &fields), "; did you mean `seed`?");
+        assert_eq!(did_you_mean("sx", &fields), "");
+        assert_eq!(did_you_mean("octahedral", &fields), "");
+        // A third of the length: two edits allowed from six characters on.
+        assert_eq!(
+            did_you_mean("sgma_tme", &fields),
+            "; did you mean `sigma_time`?"
+        );
+        assert_eq!(did_you_mean("sgm", &fields), "");
     }
 
     #[test]
