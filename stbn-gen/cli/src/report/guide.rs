@@ -131,8 +131,13 @@ fn distribution(frame: f64, target: &str, white: f64) -> String {
     }
 }
 
+/// A low band with two decimals, four below 0.01 (so a very blue mask does not read 0.00).
 fn figure(band: Option<f64>) -> String {
-    band.map_or("n/a".to_owned(), |b| format!("{b:.2}"))
+    match band {
+        None => "n/a".to_owned(),
+        Some(b) if b < 0.01 => format!("{b:.4}"),
+        Some(b) => format!("{b:.2}"),
+    }
 }
 
 /// Which kind of mask serves which use: true for any manifest.
@@ -195,5 +200,6 @@ mod tests {
         );
         assert!(verdict(&row(Some(0.98), Some(1.0))).contains("⚠ no better than white noise"));
         assert!(verdict(&row(Some(0.05), None)).contains("a single frame"));
+        assert!(verdict(&row(Some(0.0014), Some(0.06))).contains("low band 0.0014, temporal 0.06"));
     }
 }
