@@ -154,18 +154,46 @@
 //!   (no bins, which `D` values could not fill): at least `1 / (2D)` (values exactly at the
 //!   midpoints `(i + ½) / D`), about `0.87 / √D` for white noise, and in between for sequences that
 //!   stratify over time.
+//!
+//! # Vector masks
+//!
+//! A vector mask ([`VectorField`]) is measured in its own space, not on its stored channels
+//! (an octahedral channel is neither uniform nor linear in the direction it encodes):
+//!
+//! - **Components** ([`VectorField::components`]): each component of the decoded value (`x`,
+//!   `y`, `z` of a direction, `u`, `v` of a point) as a scalar [`Field`]. Spectra, low bands, DFT
+//!   images and the vector filtered error ([`filtered_error_vector`]) read these: they say whether
+//!   neighbouring pixels and frames hold different values.
+//! - **Stratum coordinates** ([`VectorField::stratum_coordinates`]): the inverse of the map that
+//!   draws the space's values from the unit square (the same maps the generator uses): the
+//!   component itself for `Vec`, the angle in turns for the circle, `((1 − z)/2, φ/2π)` on the
+//!   sphere, `(1 − z, φ/2π)` on the uniform hemisphere, `(1 − z², φ/2π)` on the cosine hemisphere,
+//!   and the row then column CDF of the image for image points and environment directions. They
+//!   are uniform in `[0, 1]` exactly when the values follow the space's pdf, so the histogram
+//!   measures of scalar masks apply to them unchanged ([`distribution_deviation`]): a cosine
+//!   hemisphere with the right distribution measures as well as a uniform scalar mask.
+//! - **Test functions** ([`TestFunction`]): a smooth function and one with an edge, on points
+//!   or on directions, whose expectation under the space's pdf is known
+//!   ([`TestFunction::expected`]). [`vector_convergence`] is [`convergence()`] for them: each
+//!   pixel estimates the expectation from its values over the frames. The reference is white noise
+//!   of the same distribution, [`VectorField::shuffled`]: the mask's own values shuffled over
+//!   every pixel and frame.
 
 mod convergence;
 mod convergence2d;
 mod dft;
 mod filtered;
 mod histogram;
+mod vector;
 
 pub use convergence::{Convergence, ConvergenceOptions, Integrand, convergence};
 pub use convergence2d::{Integrand2D, convergence_2d, toroidal_shift};
 pub use dft::{SpectrumImage, dft_xy_image, dft_xz_image};
 pub use filtered::{FilteredErrorOptions, filtered_error, filtered_error_vector, gaussian_weights};
 pub use histogram::{pixel_histogram_deviation, slice_histogram_deviation};
+pub use vector::{
+    DistributionDeviation, TestFunction, VectorField, distribution_deviation, vector_convergence,
+};
 
 use std::fmt;
 

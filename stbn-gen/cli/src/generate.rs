@@ -8,9 +8,9 @@ use std::time::Instant;
 use clap::ValueEnum;
 use indicatif::ProgressBar;
 use stbn_build_support::{Generated, Manifest, MaskEntry, Method, Recipe};
-use stbn_gen::Progress;
-use stbn_gen::analysis::Field;
+use stbn_gen::analysis::{Field, VectorField};
 use stbn_gen::export::{PngDepth, write_slices_png};
+use stbn_gen::{Progress, SampleSpace};
 use stbn_runtime::{Encoding, PackedStbn, Space, ValueMap};
 
 use crate::report::{self, Report};
@@ -115,18 +115,13 @@ pub fn run(
             (Method::FilterAdapted, Some(space)) => format!("{:?}({space:?})", entry.kind),
             _ => format!("{:?}", entry.kind),
         };
-        // Scalar masks are measured on their generated values; vector masks on their first
-        // stored component (the report's figures are per scalar field).
-        let values = match &generated {
-            Generated::Scalar(volume) => volume.values(),
-            Generated::Vector { .. } => vector::channel_values(&mask, 0),
-        };
-        let field = Field::new(w as usize, h as usize, d as usize, &values)
-            .expect("a mask's values are a field");
         let dir = staging.dir();
         let name = &entry.name;
         match (format, &generated) {
-            (OutputFormat::Png, Generated::Scalar(_)) => {
+            (OutputFormat::Png, Generated::Scalar(volume)) => {
+                let values = volume.values();
+                let field = Field::new(w as usize, h as usize, d as usize, &values)
+                    .expect("a mask's values are a field");
                 let depth = if entry.encoding == Encoding::Unorm8 {
                     PngDepth::Eight
                 } else {
@@ -161,7 +156,23 @@ pub fn run(
                 written.push(format!("{name}.stbn"));
             }
         }
-        let row = report.measure(name, &kind, Some(seconds), &field)?;
+        // Both families are measured on their generated values: scalar masks as one field,
+        // vector masks in their own space (decoded components, the space's pdf).
+        let size = (w as usize, h as usize, d as usize);
+        let row = match &generated {
+            Generated::Scalar(volume) => {
+                let values = volume.values();
+                let field = Field::new(size.0, size.1, size.2, &values)
+                    .expect("a mask's values are a field");
+                report.measure(name, &kind, Some(seconds), &field)?
+            }
+            Generated::Vector { volume, .. } => {
+                let space = sample_space(entry).expect("a vector mask has a sample space");
+                let field =
+                    VectorField::new(&space, size, volume.values()).map_err(|e| mask_error(&e))?;
+                report.measure_vector(name, &kind, Some(seconds), &field)?
+            }
+        };
         println!("{}", row.summary());
     }
     let written_as = match format {
@@ -171,7 +182,7 @@ pub fn run(
     };
     let mut intro = format!(
         "Masks of `{}`, written as {written_as} next to this report. Vector masks are measured \
-         on their first stored channel.",
+         in their own space (\"Vector masks in their own space\").",
         manifest.path().display()
     );
     if let Some(budget) = swaps_per_pixel {
@@ -188,6 +199,14 @@ pub fn run(
     staging.commit(&written)?;
     println!("report: {}", out.join("report.md").display());
     Ok(())
+}
+
+/// The space the values of vector mask `entry` are drawn from; `None` for scalar masks.
+fn sample_space(entry: &MaskEntry) -> Option<SampleSpace> {
+    match entry.filter_adapted_spec() {
+        Some((_, space)) => space,
+        None => entry.vector_spec().map(|spec| spec.space),
+    }
 }
 
 /// Generates `entry` and encodes it as build-support does ([`Recipe::encode`]), with a progress

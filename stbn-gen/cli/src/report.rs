@@ -3,7 +3,9 @@
 //! and every number as CSV in `csv/`.
 
 mod csv;
+mod guide;
 mod spectrum_images;
+mod vector;
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -12,13 +14,14 @@ use indicatif::{ProgressBar, ProgressStyle};
 
 use stbn_gen::analysis::{
     Convergence, ConvergenceOptions, Field, FilteredErrorOptions, Integrand, SpectrumImage,
-    convergence, dft_xy_image, dft_xz_image, filtered_error, pixel_histogram_deviation,
-    radial_spectrum, slice_histogram_deviation, spatial_low_band, temporal_low_band,
-    temporal_spectrum,
+    VectorField, convergence, dft_xy_image, dft_xz_image, filtered_error,
+    pixel_histogram_deviation, radial_spectrum, slice_histogram_deviation, spatial_low_band,
+    temporal_low_band, temporal_spectrum,
 };
 
 use crate::Result;
 use crate::output::{self, Axis, Cell, Chart, Column, Series, SeriesLabelPosition, Style, Table};
+pub use vector::VectorFigures;
 
 /// Bins of the histogram-deviation column. 16 divides every power-of-two slice size from 16
 /// pixels up and the 256 levels of 8-bit PNGs, so exactly uniform slices measure exactly 0.
@@ -46,28 +49,39 @@ pub struct Row {
     pub kind: String,
     /// Generation wall-clock time in seconds; `None` for analysed slices.
     pub seconds: Option<f64>,
-    /// [`spatial_low_band`]: dimensionless, white noise ≈ 1; `None` for 1×1 frames.
+    /// [`spatial_low_band`]: dimensionless, white noise ≈ 1; `None` for 1×1 frames. Vector
+    /// masks: the mean over the decoded components ([`VectorFigures::components`]).
     pub spatial: Option<f64>,
-    /// [`temporal_low_band`]: dimensionless, white noise ≈ 1; `None` for a single frame.
+    /// [`temporal_low_band`]: dimensionless, white noise ≈ 1; `None` for a single frame. Vector
+    /// masks: the mean over the decoded components.
     pub temporal: Option<f64>,
     /// [`slice_histogram_deviation`] over [`HISTOGRAM_BINS`] bins: 0 = exactly uniform frames.
+    /// Vector masks: the frame figure of [`stbn_gen::analysis::distribution_deviation`], 0 =
+    /// every frame follows the space's pdf exactly.
     pub histogram: f64,
     /// [`pixel_histogram_deviation`]: mean Kolmogorov–Smirnov distance of each pixel's values
     /// over the frames from uniform; `1/(2·frames)` at best, about `0.87/√frames` for white
-    /// noise.
+    /// noise. Vector masks: the pixel figure of
+    /// [`stbn_gen::analysis::distribution_deviation`] (distance from the space's pdf).
     pub pixel_histogram: f64,
-    /// [`radial_spectrum`]: normalised power per ring of radius `r` (cycles per longest side).
+    /// [`radial_spectrum`]: normalised power per ring of radius `r` (cycles per longest side);
+    /// vector masks: the mean over the decoded components.
     pub radial: Vec<f64>,
-    /// [`temporal_spectrum`]: normalised power per temporal frequency (cycles per `frames`).
+    /// [`temporal_spectrum`]: normalised power per temporal frequency (cycles per `frames`);
+    /// vector masks: the mean over the decoded components.
     pub temporal_spectrum: Vec<f64>,
-    /// [`filtered_error`] with EA's settings ([`FilteredErrorOptions::default`]) per frame.
+    /// [`filtered_error`] with EA's settings ([`FilteredErrorOptions::default`]) per frame;
+    /// vector masks: [`filtered_error_vector`] of the decoded components.
     pub filtered: Vec<f64>,
     /// [`convergence()`] of each of [`Integrand::ALL`] over [`CONVERGENCE_SAMPLES`] samples from
-    /// frame 0 (EMA α = 0.1), in that order.
+    /// frame 0 (EMA α = 0.1), in that order. Empty for vector masks, whose values are not in
+    /// `[0, 1)`: their test functions are in [`Row::vector`].
     pub convergence: Vec<Convergence>,
     /// The same started at frame `⌊frames / 3⌋` (toroidal progressiveness: a sequence may start
-    /// anywhere and should converge just as fast).
+    /// anywhere and should converge just as fast). Empty for vector masks.
     pub convergence_late: Vec<Convergence>,
+    /// The figures only a vector mask has; `None` for scalar masks.
+    pub vector: Option<VectorFigures>,
 }
 
 /// The DFT magnitude images of one mask: [`dft_xy_image`] (mean over the frames, `width ×
@@ -151,6 +165,7 @@ impl Row {
             filtered,
             convergence,
             convergence_late,
+            vector: None,
         };
         (row, Spectra { xy, xz })
     }
@@ -239,18 +254,24 @@ impl Report {
         seconds: Option<f64>,
         field: &Field,
     ) -> Result<&Row> {
-        let bar = bar(
-            MEASURE_STEPS.len() as u64 - 1,
-            &format!("{name}: measuring"),
-            "{prefix} [{bar:30}] {pos}/{len} {msg} {elapsed_precise}",
-        );
-        bar.enable_steady_tick(std::time::Duration::from_millis(200));
-        let (row, spectra) =
-            Row::measure_with_progress(name, kind, seconds, field, &mut |step, what| {
-                bar.set_position(step as u64);
-                bar.set_message(what);
-            });
-        bar.finish_and_clear();
+        let (row, spectra) = with_measure_bar(name, MEASURE_STEPS.len(), |progress| {
+            Row::measure_with_progress(name, kind, seconds, field, progress)
+        });
+        self.push(row, &spectra)?;
+        Ok(self.rows.last().expect("a row was pushed"))
+    }
+
+    /// [`Report::measure`] for a vector mask, measured in its own space ([`VectorFigures`]).
+    pub fn measure_vector(
+        &mut self,
+        name: &str,
+        kind: &str,
+        seconds: Option<f64>,
+        field: &VectorField,
+    ) -> Result<&Row> {
+        let (row, spectra) = with_measure_bar(name, vector::STEPS.len(), |progress| {
+            vector::measure(name, kind, seconds, field, progress)
+        });
         self.push(row, &spectra)?;
         Ok(self.rows.last().expect("a row was pushed"))
     }
@@ -268,7 +289,8 @@ impl Report {
     /// Writes the plots in `plots/`, the CSV files in `csv/` and `report.md`, with `intro`
     /// above the figures and `sections` (markdown) at the end; returns the report's path.
     pub fn finish(self, intro: &str, sections: &str) -> Result<PathBuf> {
-        let figures = figures(&self.rows);
+        let mut figures = figures(&self.rows);
+        figures.extend(vector::figures(&self.rows));
         let bar = bar(
             figures.len() as u64 + 2,
             "report: writing",
@@ -297,6 +319,27 @@ impl Report {
         ]
         .map(str::to_owned)
     }
+}
+
+/// Runs `measure` of `steps` named steps (the last one `done`) under a progress bar (on a
+/// terminal) for mask `name`.
+fn with_measure_bar<T>(
+    name: &str,
+    steps: usize,
+    measure: impl FnOnce(&mut dyn FnMut(usize, &'static str)) -> T,
+) -> T {
+    let bar = bar(
+        steps as u64 - 1,
+        &format!("{name}: measuring"),
+        "{prefix} [{bar:30}] {pos}/{len} {msg} {elapsed_precise}",
+    );
+    bar.enable_steady_tick(std::time::Duration::from_millis(200));
+    let measured = measure(&mut |step, what| {
+        bar.set_position(step as u64);
+        bar.set_message(what);
+    });
+    bar.finish_and_clear();
+    measured
 }
 
 /// A progress bar of `len` steps with `template` and `prefix`, drawn only on a terminal.
@@ -430,9 +473,14 @@ fn figures(rows: &[Row]) -> Vec<Figure> {
     ];
     for integrand in Integrand::ALL {
         for estimator in Estimator::ALL {
+            // Vector masks have no curve here (their test functions have their own plots), but
+            // keep their series, empty, so every plot gives a mask the same colour.
             let series = rows
                 .iter()
                 .map(|row| {
+                    if row.vector.is_some() {
+                        return Vec::new();
+                    }
                     let curve = estimator.curve(row.curves(integrand)).iter().enumerate();
                     curve.map(|(k, &e)| ((k + 1) as f64, e)).collect()
                 })
@@ -515,29 +563,54 @@ fn summary_table(rows: &[Row]) -> Table {
         Column::csv_only("height"),
         Column::csv_only("frames"),
         Column::both("seconds", "seconds", true),
-        Column::both("spatial_low_band", "spatial low band", true),
-        Column::both("temporal_low_band", "temporal low band", true),
+        Column::both(
+            "spatial_low_band",
+            "spatial low band (white = 1, lower = bluer)",
+            true,
+        ),
+        Column::both(
+            "temporal_low_band",
+            "temporal low band (white = 1, lower = bluer)",
+            true,
+        ),
         Column::both(
             "slice_histogram_deviation",
-            "frame histogram deviation",
+            "frame histogram deviation (0 = exact)",
             true,
         ),
         Column::both(
             "pixel_histogram_deviation",
-            "pixel histogram deviation",
+            "pixel histogram deviation (lower = better)",
             true,
         ),
-        Column::both("filtered_error_last", "filtered error", true),
+        Column::both(
+            "filtered_error_last",
+            "filtered error (coverage, white ≈ 0.020, lower = better)",
+            true,
+        ),
     ];
     for estimator in Estimator::ALL {
         let label = estimator.label();
         let csv = CONVERGENCE_AT.map(|n| format!("step_{}_rmse_{n}", label.to_lowercase()));
         columns.extend(csv.iter().map(|name| Column::csv_only(name)));
+        let white = match estimator {
+            Estimator::MonteCarlo => "white 0.5/√n",
+            Estimator::Ema => "white ≈ 0.115",
+        };
         columns.push(Column::markdown_only(
-            &format!("step {label} RMSE at {at}"),
+            &format!("step {label} RMSE at {at} ({white}, lower = better)"),
             true,
         ));
     }
+    columns.push(Column::both("space", "space", false));
+    columns.push(Column::both(
+        "test_function_ratio_to_white",
+        &format!(
+            "test functions' error ÷ white noise's at {} samples (white = 1, lower = better)",
+            vector::RATIO_AT
+        ),
+        true,
+    ));
     let mut table = Table::with_columns(columns);
     for row in rows {
         let (width, height, frames) = row.size;
@@ -555,13 +628,23 @@ fn summary_table(rows: &[Row]) -> Table {
             Cell::fixed(row.pixel_histogram, 4),
             Cell::fixed(row.filtered_last(), 5),
         ];
-        let step = row.curves(Integrand::Step);
         for estimator in Estimator::ALL {
-            let curve = estimator.curve(step);
-            let at = CONVERGENCE_AT.map(|n| curve.get(n - 1).copied());
-            cells.extend(at.map(|e| Cell::opt_fixed(e, 4)));
-            cells.push(Cell::text(at_samples(curve)));
+            match &row.vector {
+                None => {
+                    let curve = estimator.curve(row.curves(Integrand::Step));
+                    let at = CONVERGENCE_AT.map(|n| curve.get(n - 1).copied());
+                    cells.extend(at.map(|e| Cell::opt_fixed(e, 4)));
+                    cells.push(Cell::text(at_samples(curve)));
+                }
+                Some(_) => {
+                    cells.extend(CONVERGENCE_AT.map(|_| Cell::missing()));
+                    cells.push(Cell::missing());
+                }
+            }
         }
+        let vector = row.vector.as_ref();
+        cells.push(Cell::text(vector.map_or("scalar", |v| v.space)));
+        cells.push(Cell::opt_fixed(vector.and_then(|v| v.worst_ratio()), 2));
         table.push(cells);
     }
     table
@@ -572,7 +655,10 @@ fn summary_table(rows: &[Row]) -> Table {
 fn markdown(intro: &str, rows: &[Row]) -> String {
     let at = CONVERGENCE_AT.map(|n| n.to_string()).join("/");
     let mut text = format!(
-        "# Blue-noise mask report\n\n{intro}\n\n{}",
+        "# Blue-noise mask report\n\n{intro}\n\n{}\n{}\n{}\n## Figures\n\n{}",
+        guide::reading_guide(),
+        guide::verdicts(rows),
+        guide::which_mask(),
         summary_table(rows).markdown()
     );
     text.push_str(&format!(
@@ -602,6 +688,10 @@ the Kolmogorov–Smirnov distance (largest gap between the empirical and the uni
 pixel's sequence, averaged over pixels. 1/(2·frames) at best (values at the midpoints of equal \
 strata), about 0.87/√frames for white noise (0.11 at 64 frames); lower means each pixel's \
 sequence covers [0, 1) more evenly over time.\n\
+- **space** and **test functions' error ÷ white noise's**: vector masks only (see \"Vector \
+masks in their own space\"): the space their values are drawn from, and the largest ratio, over \
+its test functions, of the mask's Monte Carlo error to that of white noise of the same \
+distribution after {ratio_at} samples. White noise = 1; lower is better.\n\
 - **filtered error**: EA's FAST metric at the last frame. For 256 stratified thresholds t, each \
 frame is binarised (value < t), blurred with a toroidal Gaussian of σ = 1.3435 px, averaged over \
 frames with an EMA (α = 0.1); the figure is √(mean over t of the spatial variance), in units of \
@@ -610,14 +700,21 @@ coverage. Lower is better; white noise measures about 0.020 (expected √(1/6 ·
 - **step MC / EMA RMSE**: every pixel estimates ∫₀¹ [x < ½] dx = ½ from its values over the \
 frames (from frame 0, wrapping after the last), as a running mean (Monte Carlo) or an EMA \
 (α = 0.1); the root-mean-square error over pixels after {at} samples. White noise: 0.5/√n for \
-Monte Carlo, a plateau of 0.5·√(α/(2 − α)) = 0.115 for the EMA.\n\n\
-Figures of generated masks are measured on the exact ranks, before PNG quantisation; those of \
-analysed files on the decoded samples, (sample + ½) / 2^bits.\n"
+Monte Carlo, a plateau of 0.5·√(α/(2 − α)) = 0.115 for the EMA. n/a for vector masks, whose \
+values are not in [0, 1).\n\n\
+Vector masks are measured on their decoded values: low bands, spectra, DFT images and the \
+filtered error (with random half-spaces as thresholds) of each component, averaged over the \
+components; histogram deviations of their stratum coordinates, against the space's pdf. \
+Figures of generated masks are measured on the exact values (ranks for scalar masks), before \
+encoding and PNG quantisation; those of analysed files on the decoded samples, \
+(sample + ½) / 2^bits.\n",
+        ratio_at = vector::RATIO_AT,
     ));
+    vector::section(&mut text, rows);
     convergence_section(&mut text, rows);
     plot_section(&mut text, rows);
     dft_section(&mut text, rows);
-    csv_section(&mut text);
+    csv_section(&mut text, rows);
     text
 }
 
@@ -652,13 +749,13 @@ fn dft_section(text: &mut String, rows: &[Row]) {
 }
 
 /// The list of CSV files, linked.
-fn csv_section(text: &mut String) {
+fn csv_section(text: &mut String, rows: &[Row]) {
     text.push_str(
         "\n## Numbers as CSV\n\n\
          Every figure and curve above, one header row each, one row per mask and point:\n\n",
     );
     // The columns do not depend on the masks: the tables of no mask name them.
-    for file in csv::files(&[]) {
+    for file in csv::files(&[], csv::has_vector(rows)) {
         writeln!(
             text,
             "- [`{name}`]({dir}/{name}): {about}; columns {columns}.",
@@ -686,10 +783,12 @@ fn convergence_section(text: &mut String, rows: &[Row]) {
          frame `start`, wrapping after the last), for the ramp f(x) = x (∫ = ½), the step \
          f(x) = [x < ½] (∫ = ½) and the sine f(x) = sin(πx) (∫ = 2/π); Monte Carlo running mean \
          and EMA (α = 0.1). Each mask is measured from frame 0 and from frame ⌊frames/3⌋: a mask \
-         that is blue over time converges as fast from any start.\n\n```text\n",
+         that is blue over time converges as fast from any start. Scalar masks only: vector \
+         masks integrate their own test functions (\"Vector masks in their own space\").\n\n\
+         ```text\n",
     );
     writeln!(text, "{:width$}  integrand  estimator  start{at}", "mask").expect("String");
-    for row in rows {
+    for row in rows.iter().filter(|row| row.vector.is_none()) {
         for integrand in Integrand::ALL {
             let starts = [
                 (0, row.curves(integrand)),
@@ -733,13 +832,36 @@ fn plot_section(text: &mut String, rows: &[Row]) {
     text.push_str(&legend.join(", "));
     text.push_str(
         ". Titles, tick labels and legends are drawn only where a TrueType font was found \
-         (`$STBN_PLOT_FONT` or a system font); the axes are stated under each plot either way.\n",
+         (`$STBN_PLOT_FONT` or a system font); the axes are stated under each plot either way. \
+         A curve that lies on an earlier one is drawn dashed over it, so both colours show; the \
+         text under the plot names them. Vector masks have no curve in the convergence plots \
+         of the scalar integrands.\n",
     );
     for Figure { file, chart, axes } in figures(rows) {
         let title = &chart.title;
+        let lies_on = chart.coincident();
+        let same: Vec<String> = lies_on
+            .iter()
+            .enumerate()
+            .filter_map(|(i, j)| {
+                let j = (*j)?;
+                Some(format!(
+                    "{} (`{}`) lies on {} (`{}`)",
+                    output::colour_name(i),
+                    rows[i].name,
+                    output::colour_name(j),
+                    rows[j].name
+                ))
+            })
+            .collect();
+        let same = if same.is_empty() {
+            String::new()
+        } else {
+            format!(" Same curve, drawn dashed: {}.", same.join("; "))
+        };
         write!(
             text,
-            "\n**{title}.** {axes}\n\n![{title}]({PLOT_DIR}/{file})\n"
+            "\n**{title}.** {axes}{same}\n\n![{title}]({PLOT_DIR}/{file})\n"
         )
         .expect("String");
     }
@@ -801,7 +923,18 @@ mod tests {
                 row("scalar", Some(1.234), Some(0.5)),
             ],
         );
-        assert!(text.starts_with("# Blue-noise mask report\n\nIntro.\n\n| mask |"));
+        // The reading guide, the verdicts and the advice on kinds come first, then the table.
+        assert!(
+            text.starts_with("# Blue-noise mask report\n\nIntro.\n\n## How to read this report\n")
+        );
+        let order = [
+            "## Verdict\n",
+            "## Which mask to pick\n",
+            "## Figures\n\n| mask |",
+        ];
+        let at: Vec<usize> = order.iter().map(|h| text.find(h).expect(h)).collect();
+        assert!(at.windows(2).all(|w| w[0] < w[1]), "{text}");
+        assert!(text.contains("- `scalar` (png 8-bit): "), "{text}");
         assert!(
             text.contains(
                 "| a\\|b | 64×32×1 | png 8-bit | n/a | 0.0012 | n/a | 0.0000 | 0.2500 | 0.01235 |"

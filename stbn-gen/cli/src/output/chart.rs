@@ -7,6 +7,10 @@
 //! the first of [`FONT_PATHS`] that loads, and draws the chart without any text when none does
 //! (the documents that show a chart state its axes and colours either way). Log axes plot
 //! `log₁₀` of the value.
+//!
+//! A series whose curve lies on an earlier one's ([`COINCIDENT`]) would hide it. It is drawn
+//! dashed instead, the dashes of each such series at its own phase, so the colours alternate
+//! along the shared curve; its legend entry and the caption name the series it lies on.
 
 use std::fs;
 use std::path::{Path, PathBuf};
@@ -26,6 +30,13 @@ const SIZE: (u32, u32) = (720, 440);
 
 /// Blank pixels around the plot area (and the title and labels when there is text).
 const MARGIN: u32 = 12;
+
+/// Two series coincide when they have the same number of plotted points and every pair of
+/// points is within this fraction of the plotted range on both axes (about 3 pixels).
+const COINCIDENT: f64 = 0.004;
+
+/// Length in pixels of one dash of a coincident series.
+const DASH: f64 = 10.0;
 
 /// Series colours with their names for captions; series `i` uses entry `i % len`.
 const PALETTE: [(&str, RGBColor); 8] = [
@@ -274,11 +285,20 @@ pub struct Chart {
 impl Chart {
     /// A caption for the chart: title, axes and colours.
     pub fn caption(&self) -> String {
+        let lies_on = self.coincident();
         let colours: Vec<String> = self
             .series
             .iter()
             .enumerate()
-            .map(|(i, s)| format!("{} = {}", colour_name(i), s.name))
+            .map(|(i, s)| match lies_on[i] {
+                Some(j) => format!(
+                    "{} = {} (same curve as {}: drawn dashed over it)",
+                    colour_name(i),
+                    s.name,
+                    colour_name(j)
+                ),
+                None => format!("{} = {}", colour_name(i), s.name),
+            })
             .collect();
         let drops = |a: &Axis| a.log && a.fixed.is_none();
         let note = if drops(&self.x) || drops(&self.y) {
@@ -298,6 +318,29 @@ impl Chart {
         )
     }
 
+    /// For each series, the first earlier series whose curve it lies on ([`COINCIDENT`]), if
+    /// any. Empty series lie on none.
+    pub fn coincident(&self) -> Vec<Option<usize>> {
+        let plotted = Plotted::of(self);
+        let span = |(low, high): (f64, f64)| (high - low).abs().max(f64::MIN_POSITIVE);
+        let (sx, sy) = (span(plotted.x.0), span(plotted.y.0));
+        let same = |a: &Mapped, b: &Mapped| {
+            !a.is_empty()
+                && a.len() == b.len()
+                && a.iter().zip(b).all(|(p, q)| {
+                    (p.0 - q.0).abs() <= COINCIDENT * sx && (p.1 - q.1).abs() <= COINCIDENT * sy
+                })
+        };
+        let mut lies_on: Vec<Option<usize>> = Vec::with_capacity(self.series.len());
+        for (i, points) in plotted.mapped.iter().enumerate() {
+            let first = (0..i)
+                .find(|&j| same(points, &plotted.mapped[j]))
+                .map(|j| lies_on[j].unwrap_or(j));
+            lies_on.push(first);
+        }
+        lies_on
+    }
+
     /// Draws the chart (with text if a font is available) and writes it to `path` as an RGB PNG
     /// of [`SIZE`].
     pub fn write_png(&self, path: &Path) -> Result<()> {
@@ -311,28 +354,83 @@ impl Chart {
 /// A series' points in plotted coordinates, each with its label.
 type Mapped<'a> = Vec<(f64, f64, Option<&'a str>)>;
 
+/// A chart's series in plotted coordinates and its axes' plotted ranges and grid lines.
+struct Plotted<'a> {
+    mapped: Vec<Mapped<'a>>,
+    x: ((f64, f64), Vec<f64>),
+    y: ((f64, f64), Vec<f64>),
+}
+
+impl Plotted<'_> {
+    fn of(chart: &Chart) -> Plotted<'_> {
+        let mapped: Vec<Mapped> = chart
+            .series
+            .iter()
+            .map(|s| {
+                let labels = s
+                    .labels
+                    .iter()
+                    .map(|l| Some(l.as_str()))
+                    .chain(std::iter::repeat(None));
+                let points = s.points.iter().zip(labels);
+                let mapped = points
+                    .filter_map(|(&(x, y), label)| Some((chart.x.map(x)?, chart.y.map(y)?, label)));
+                mapped.collect()
+            })
+            .collect();
+        let xs: Vec<f64> = mapped.iter().flatten().map(|p| p.0).collect();
+        let ys: Vec<f64> = mapped.iter().flatten().map(|p| p.1).collect();
+        Plotted {
+            x: chart.x.layout(&xs),
+            y: chart.y.layout(&ys),
+            mapped,
+        }
+    }
+}
+
+/// The pieces of the polyline `points` (pixels) where the distance along it, modulo `period`,
+/// is in `from..to`: the dashes of one phase.
+fn dashes(points: &[(i32, i32)], period: f64, from: f64, to: f64) -> Vec<[(i32, i32); 2]> {
+    let mut pieces = Vec::new();
+    let mut travelled = 0.0;
+    for pair in points.windows(2) {
+        let (a, b) = (pair[0], pair[1]);
+        let (dx, dy) = (f64::from(b.0 - a.0), f64::from(b.1 - a.1));
+        let length = dx.hypot(dy);
+        let at = |s: f64| {
+            let t = if length > 0.0 {
+                (s - travelled) / length
+            } else {
+                0.0
+            };
+            (
+                (f64::from(a.0) + t * dx).round() as i32,
+                (f64::from(a.1) + t * dy).round() as i32,
+            )
+        };
+        let end = travelled + length;
+        let mut start = (travelled / period).floor() * period + from;
+        while start < end {
+            let (lo, hi) = (start.max(travelled), (start + to - from).min(end));
+            if hi > lo {
+                pieces.push([at(lo), at(hi)]);
+            }
+            start += period;
+        }
+        travelled = end;
+    }
+    pieces
+}
+
 /// The RGB pixels of `chart`, row-major; `text` draws the title, tick labels, axis titles, point
 /// labels and legend (it needs a registered font).
 fn render(chart: &Chart, text: bool) -> std::result::Result<Vec<u8>, Box<dyn std::error::Error>> {
-    let mapped: Vec<Mapped> = chart
-        .series
-        .iter()
-        .map(|s| {
-            let labels = s
-                .labels
-                .iter()
-                .map(|l| Some(l.as_str()))
-                .chain(std::iter::repeat(None));
-            let points = s.points.iter().zip(labels);
-            let mapped = points
-                .filter_map(|(&(x, y), label)| Some((chart.x.map(x)?, chart.y.map(y)?, label)));
-            mapped.collect()
-        })
-        .collect();
-    let xs: Vec<f64> = mapped.iter().flatten().map(|p| p.0).collect();
-    let ys: Vec<f64> = mapped.iter().flatten().map(|p| p.1).collect();
-    let ((x0, x1), x_grid) = chart.x.layout(&xs);
-    let ((y0, y1), y_grid) = chart.y.layout(&ys);
+    let Plotted {
+        mapped,
+        x: ((x0, x1), x_grid),
+        y: ((y0, y1), y_grid),
+    } = Plotted::of(chart);
+    let lies_on = chart.coincident();
     let mut pixels = vec![0u8; SIZE.0 as usize * SIZE.1 as usize * 3];
     {
         let root = BitMapBackend::with_buffer(&mut pixels, SIZE).into_drawing_area();
@@ -365,15 +463,41 @@ fn render(chart: &Chart, text: bool) -> std::result::Result<Vec<u8>, Box<dyn std
             let colour = PALETTE[i % PALETTE.len()].1;
             let line = points.iter().map(|p| (p.0, p.1));
             // A marked-only series draws a line through its first point alone: nothing to see,
-            // but the legend entry hangs on it.
-            let line: Vec<(f64, f64)> = if series.style == Style::Points {
+            // but the legend entry hangs on it. So does a series drawn dashed over the curve it
+            // lies on.
+            let dashed = lies_on[i].filter(|_| series.style != Style::Points);
+            let line: Vec<(f64, f64)> = if series.style == Style::Points || dashed.is_some() {
                 line.take(1).collect()
             } else {
                 line.collect()
             };
+            // The group: the first series (solid) and every series lying on it, in order; this
+            // one's dashes take its own share of each period.
+            let pieces = match dashed {
+                Some(first) => {
+                    let group: Vec<usize> = (0..chart.series.len())
+                        .filter(|&k| k == first || lies_on[k] == Some(first))
+                        .collect();
+                    let rank = group.iter().position(|&k| k == i).expect("in its group") as f64;
+                    let pixels: Vec<(i32, i32)> = points
+                        .iter()
+                        .map(|p| plot.backend_coord(&(p.0, p.1)))
+                        .collect();
+                    let period = DASH * group.len() as f64;
+                    dashes(&pixels, period, rank * DASH, (rank + 1.0) * DASH)
+                }
+                None => Vec::new(),
+            };
+            for piece in pieces {
+                root.draw(&PathElement::new(piece, colour.stroke_width(2)))?;
+            }
             let drawn = plot.draw_series(LineSeries::new(line, colour.stroke_width(2)))?;
             if text {
-                drawn.label(series.name.as_str()).legend(move |(x, y)| {
+                let label = match lies_on[i] {
+                    Some(j) => format!("{} (= {})", series.name, chart.series[j].name),
+                    None => series.name.clone(),
+                };
+                drawn.label(label).legend(move |(x, y)| {
                     PathElement::new([(x, y), (x + 16, y)], colour.stroke_width(2))
                 });
             }
@@ -580,6 +704,41 @@ mod tests {
         let black = (row(0.75) - 2..=row(0.75) + 2).any(|y| pixel(&pixels, column, y) == [0, 0, 0]);
         assert!(black);
         assert_eq!(pixel(&pixels, column, row(0.5) + 20), [255, 255, 255]);
+    }
+
+    #[test]
+    fn identical_curves_stay_visible_and_are_named() {
+        let curve: Vec<(f64, f64)> = (0..50).map(|k| (k as f64 / 49.0, 0.5)).collect();
+        let line = |name: &str, points: Vec<(f64, f64)>| Series {
+            name: name.to_owned(),
+            points,
+            style: Style::Line,
+            ..Series::default()
+        };
+        let mut chart = flat_chart();
+        chart.series = vec![
+            line("a", curve.clone()),
+            line("b", curve.clone()),
+            line("c", curve.iter().map(|&(x, y)| (x, y + 0.001)).collect()),
+            line("d", curve.iter().map(|&(x, y)| (x, y - 0.3)).collect()),
+        ];
+        assert_eq!(chart.coincident(), vec![None, Some(0), Some(0), None]);
+        let pixels = render(&chart, false).unwrap();
+        // The three coincident series share the curve: each keeps about a third of it (a
+        // drawn-over series would keep none); the fourth is apart and whole.
+        let (a, b, c, d) = (
+            count(&pixels, 0),
+            count(&pixels, 1),
+            count(&pixels, 2),
+            count(&pixels, 3),
+        );
+        assert!(a > d / 5 && b > d / 5 && c > d / 5, "{a} {b} {c} {d}");
+        let caption = chart.caption();
+        assert!(
+            caption.contains("orange = b (same curve as blue: drawn dashed over it)"),
+            "{caption}"
+        );
+        assert!(caption.contains("red = d."), "{caption}");
     }
 
     #[test]

@@ -8,6 +8,8 @@
 //! | `convergence.csv` | `mask, integrand, estimator, start_frame, samples, rmse` |
 //! | `radial_spectrum.csv` | `mask, ring, cycles_per_pixel, normalised_power` |
 //! | `temporal_spectrum.csv` | `mask, frequency, cycles_per_frame, normalised_power` |
+//! | `vector_components.csv` | `mask, space, component, spatial_low_band, temporal_low_band` (only with vector masks) |
+//! | `vector_convergence.csv` | `mask, function, samples_from, estimator, samples, rmse` (only with vector masks) |
 //!
 //! Numbers are written with Rust's shortest round-trip formatting (every digit that the `f64`
 //! holds); a figure that does not exist (e.g. the temporal low band of a single frame) is an
@@ -48,15 +50,20 @@ fn long_table<const N: usize>(
     table
 }
 
-/// Every CSV file of `rows` ([module docs](self)).
-pub fn files(rows: &[Row]) -> Vec<CsvFile> {
+/// Whether `rows` hold a vector mask, whose files [`files`] then adds.
+pub fn has_vector(rows: &[Row]) -> bool {
+    rows.iter().any(|row| row.vector.is_some())
+}
+
+/// Every CSV file of `rows` ([module docs](self)), with the vector masks' files when `vector`.
+pub fn files(rows: &[Row], vector: bool) -> Vec<CsvFile> {
     let name = |row: &Row| Cell::text(&row.name);
     let filtered = rows.iter().flat_map(|row| {
         let frames = row.filtered.iter().enumerate();
         frames.map(|(k, &e)| [name(row), Cell::int(k as u64), Cell::fixed(e, 5)])
     });
     let mut convergence = Vec::new();
-    for row in rows {
+    for row in rows.iter().filter(|row| row.vector.is_none()) {
         for integrand in Integrand::ALL {
             let starts = [
                 (0, row.curves(integrand)),
@@ -94,7 +101,7 @@ pub fn files(rows: &[Row]) -> Vec<CsvFile> {
             [name(row), Cell::int(f as u64), frequency, Cell::fixed(p, 4)]
         })
     });
-    vec![
+    let mut files = vec![
         CsvFile {
             name: "summary.csv",
             about: "one row per mask: size, generation seconds, low bands, histogram \
@@ -140,6 +147,78 @@ pub fn files(rows: &[Row]) -> Vec<CsvFile> {
                 temporal,
             ),
         },
+    ];
+    if vector {
+        files.extend(vector_files(rows));
+    }
+    files
+}
+
+/// The files only vector masks have: low bands per component, and the test functions'
+/// convergence for the mask and for white noise of its distribution.
+fn vector_files(rows: &[Row]) -> [CsvFile; 2] {
+    let name = |row: &Row| Cell::text(&row.name);
+    let mut components = Vec::new();
+    let mut convergence = Vec::new();
+    for row in rows {
+        let Some(vector) = &row.vector else { continue };
+        for c in &vector.components {
+            components.push([
+                name(row),
+                Cell::text(vector.space),
+                Cell::text(c.name),
+                Cell::opt_fixed(c.spatial, 4),
+                Cell::opt_fixed(c.temporal, 4),
+            ]);
+        }
+        for t in &vector.tests {
+            for (source, curves) in [("mask", &t.mask), ("white_noise", &t.white)] {
+                for estimator in Estimator::ALL {
+                    for (k, &e) in estimator.curve(curves).iter().enumerate() {
+                        convergence.push([
+                            name(row),
+                            Cell::text(t.function.name()),
+                            Cell::text(source),
+                            Cell::text(estimator.label()),
+                            Cell::int(k as u64 + 1),
+                            Cell::fixed(e, 4),
+                        ]);
+                    }
+                }
+            }
+        }
+    }
+    [
+        CsvFile {
+            name: "vector_components.csv",
+            about: "low bands of each decoded component of each vector mask",
+            table: long_table(
+                [
+                    "mask",
+                    "space",
+                    "component",
+                    "spatial_low_band",
+                    "temporal_low_band",
+                ],
+                components,
+            ),
+        },
+        CsvFile {
+            name: "vector_convergence.csv",
+            about: "RMSE per vector mask, test function, samples from (the mask or white noise \
+                    of its distribution), estimator and number of samples",
+            table: long_table(
+                [
+                    "mask",
+                    "function",
+                    "samples_from",
+                    "estimator",
+                    "samples",
+                    "rmse",
+                ],
+                convergence,
+            ),
+        },
     ]
 }
 
@@ -148,8 +227,9 @@ pub fn files(rows: &[Row]) -> Vec<CsvFile> {
 pub fn write(out: &Path, rows: &[Row]) -> Result<()> {
     let dir = out.join(CSV_DIR);
     output::create_dir(&dir)?;
+    let vector = has_vector(rows);
     let mut outputs = Vec::new();
-    for file in files(&[]) {
+    for file in files(&[], vector) {
         let path = dir.join(file.name);
         // The table of no mask is the header line.
         output::write_text(&path, &file.table.csv())?;
@@ -160,7 +240,8 @@ pub fn write(out: &Path, rows: &[Row]) -> Result<()> {
         ));
     }
     for row in rows {
-        for (file, (handle, path)) in files(std::slice::from_ref(row)).iter().zip(&mut outputs) {
+        let files = files(std::slice::from_ref(row), vector);
+        for (file, (handle, path)) in files.iter().zip(&mut outputs) {
             let text = file.table.csv();
             let body = text.split_once('\n').map_or("", |(_, body)| body);
             handle
