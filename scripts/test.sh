@@ -115,6 +115,10 @@ for file in "$examples_out"/cpu_dither/{ramp,frame_0,frame_3,mean_32}.png \
 done
 
 step "cargo package (the published crates build from their .crate files alone)"
-quietly cargo package --allow-dirty --workspace --exclude stbn-demo --exclude stbn-scenes
+# Each .crate is built as a workspace of its own, in this target directory: with the workspace's
+# debug level for dependencies, it reuses the dependencies the test step built where their
+# features agree.
+quietly cargo package --allow-dirty --workspace --exclude stbn-demo --exclude stbn-scenes \
+    --config 'profile.dev.package."*".debug = false'
 
 step "all checks passed"
