@@ -54,8 +54,11 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
 use super::filters::{Kernel, ScanKernel};
+#[cfg(test)]
+use crate::rng::keyed_rng;
 use crate::rng::{self, other_index};
 use crate::schedule::{self, Layout, PassKey, SpanStart, Tile, TileOptimizer};
+use crate::swap::Build;
 
 /// Spatial taps with `Δx² + Δy² ≤ CORE_RADIUS_SQUARED` (the pixel and its 8 neighbours, times
 /// every temporal tap) form the screening core. Cores of radius √2, 2 and √8 reach the same
@@ -665,9 +668,17 @@ impl Optimizer {
         if total_len == 0 {
             return Some(0);
         }
-        let sum = |taps: &dyn Fn(usize) -> std::ops::Range<usize>| {
+        // A function rather than a closure so that it inlines into the SIMD builds of the tile
+        // loop (a closure called twice is compiled once, for the baseline).
+        #[inline(always)]
+        fn sum(
+            (kernel, columns, parts): (&ScanKernel, &Columns, &[(i128, i16, i16)]),
+            taps: &dyn Fn(usize) -> std::ops::Range<usize>,
+            z: usize,
+            (a, b): ((usize, usize), (usize, usize)),
+        ) -> i128 {
             let mut total = 0i128;
-            for (c, &(sign, lo, len)) in parts.iter().enumerate().take(*dims) {
+            for (c, &(sign, lo, len)) in parts.iter().enumerate() {
                 if len != 0 {
                     total += sign
                         * (i128::from(scan(kernel, columns, c, taps, z, a, lo, len))
@@ -675,15 +686,16 @@ impl Optimizer {
                 }
             }
             total
-        };
-        let core_sum = sum(&near);
+        }
+        let state = (kernel, columns, &parts[..*dims]);
+        let core_sum = sum(state, &near, z, (a, b));
         if let Some(tau) = screen {
             let core_delta = 4 * (core_sum + pair * total_len);
             if core_delta as f64 >= tau * total_len as f64 * kernel.total as f64 {
                 return None;
             }
         }
-        let rest = sum(&far);
+        let rest = sum(state, &far, z, (a, b));
         Some(4 * (core_sum + rest + pair * total_len))
     }
 
@@ -794,7 +806,57 @@ impl Optimizer {
         }
     }
 
+    /// [`Optimizer::run_tile_work`] compiled for the widest vector instructions the CPU has
+    /// ([`crate::swap::widest_build`]): the level scans are integer sums, so every build gives
+    /// the same result.
+    fn run_tile_fastest(
+        &self,
+        tile: &Tile,
+        work: &mut Work,
+        rng: ChaCha8Rng,
+        fraction: f64,
+    ) -> TileResult {
+        match crate::swap::widest_build() {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `widest_build` picks AVX-512 only where the CPU has AVX-512F and AVX-512BW,
+            // all that `run_tile_avx512` requires.
+            Build::Avx512 => unsafe { self.run_tile_avx512(tile, work, rng, fraction) },
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `widest_build` picks AVX2 only where the CPU has it, all that
+            // `run_tile_avx2` requires.
+            Build::Avx2 => unsafe { self.run_tile_avx2(tile, work, rng, fraction) },
+            _ => self.run_tile_work(tile, work, rng, fraction),
+        }
+    }
+
+    /// [`Optimizer::run_tile_work`] compiled with AVX-512F and AVX-512BW enabled.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx512bw")]
+    fn run_tile_avx512(
+        &self,
+        tile: &Tile,
+        work: &mut Work,
+        rng: ChaCha8Rng,
+        fraction: f64,
+    ) -> TileResult {
+        self.run_tile_work(tile, work, rng, fraction)
+    }
+
+    /// [`Optimizer::run_tile_work`] compiled with AVX2 enabled.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn run_tile_avx2(
+        &self,
+        tile: &Tile,
+        work: &mut Work,
+        rng: ChaCha8Rng,
+        fraction: f64,
+    ) -> TileResult {
+        self.run_tile_work(tile, work, rng, fraction)
+    }
+
     /// Proposes the swaps of one tile of one pass in every frame, on the tile's copies.
+    #[inline(always)]
     fn run_tile_work(
         &self,
         tile: &Tile,
@@ -897,7 +959,7 @@ impl TileOptimizer for Optimizer {
 
     fn run_tile(&self, tile: &Tile, rng: ChaCha8Rng, fraction: &f64) -> TileOutcome {
         let mut work = self.extract(tile);
-        let result = self.run_tile_work(tile, &mut work, rng, *fraction);
+        let result = self.run_tile_fastest(tile, &mut work, rng, *fraction);
         TileOutcome { work, result }
     }
 
@@ -928,6 +990,68 @@ fn local(tile: &Tile, i: usize) -> (usize, usize) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The AVX2 and AVX-512 builds of the tile loop give the same permutation and totals as the
+    /// portable one (AVX-512 where the CPU has it).
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn simd_and_portable_tile_loops_agree() {
+        use crate::filter_adapted::{FilterAdaptedSpec, scalar_energy};
+        assert!(
+            std::arch::is_x86_feature_detected!("avx2"),
+            "this test needs an x86-64 CPU with AVX2 to compare the builds"
+        );
+        let mut builds = vec![Build::Avx2];
+        if std::arch::is_x86_feature_detected!("avx512f")
+            && std::arch::is_x86_feature_detected!("avx512bw")
+        {
+            builds.push(Build::Avx512);
+        }
+        let spec = FilterAdaptedSpec::new(24, 20, 12, 3);
+        let n = spec.slice_pixels() as u32;
+        // Each frame a permutation: a multiplier coprime with 480.
+        let ranks: Vec<u32> = (0..spec.depth)
+            .flat_map(|z| (0..n).map(move |i| (i * 7 + z * 31) % n))
+            .collect();
+        let optimizer = || {
+            let (energy, _) = scalar_energy(&spec, n as usize);
+            Optimizer::new(energy, (24, 20, 12), ranks.clone(), spec.seed)
+        };
+        let tile = Tile {
+            x0: 3,
+            y0: 5,
+            rx0: 3,
+            ry0: 5,
+            ..Tile::whole(24, 20)
+        };
+        let mut portable = optimizer();
+        let mut simd: Vec<Optimizer> = builds.iter().map(|_| optimizer()).collect();
+        for pass in 0..3 {
+            let rng = || keyed_rng(spec.seed, rng::FILTER_ADAPTED.tile, pass, tile.id);
+            let mut work = portable.extract(&tile);
+            let a = portable.run_tile_work(&tile, &mut work, rng(), 1.0);
+            portable.write_back_work(&tile, &work);
+            assert!(a.accepted > 0, "no swap accepted");
+            for (&build, o) in builds.iter().zip(&mut simd) {
+                let mut work = o.extract(&tile);
+                let b = match build {
+                    // SAFETY: the CPU has AVX2 (asserted above).
+                    Build::Avx2 => unsafe { o.run_tile_avx2(&tile, &mut work, rng(), 1.0) },
+                    // SAFETY: only pushed where the CPU has AVX-512F and AVX-512BW.
+                    _ => unsafe { o.run_tile_avx512(&tile, &mut work, rng(), 1.0) },
+                };
+                o.write_back_work(&tile, &work);
+                assert_eq!(
+                    (a.attempted, a.screened, a.accepted, a.delta),
+                    (b.attempted, b.screened, b.accepted, b.delta),
+                    "{build:?}"
+                );
+            }
+        }
+        for o in &simd {
+            assert_eq!(portable.perm(), o.perm());
+        }
+    }
 
     #[test]
     fn window_dot_is_exact() {

@@ -29,16 +29,41 @@ const ASSIGNMENT_SHORTLIST: usize = 256;
 /// Values nearest the anchor's sorted before the rest of the shortlist (most sets fill from them).
 const ASSIGNMENT_FIRST_LOOK: usize = 32;
 
+/// The working arrays of [`min_cost_assignment`], kept between calls so a move allocates
+/// nothing.
+#[derive(Default)]
+struct Hungarian {
+    u: Vec<f64>,
+    v: Vec<f64>,
+    p: Vec<usize>,
+    way: Vec<usize>,
+    minv: Vec<f64>,
+    used: Vec<bool>,
+}
+
 /// The permutation `out` (row `i` gets column `out[i]`) of least total `cost` (`k × k`, row
 /// major): the Hungarian method with potentials, O(k³). Deterministic.
-fn min_cost_assignment(cost: &[f64], k: usize, out: &mut [usize]) {
+fn min_cost_assignment(cost: &[f64], k: usize, out: &mut [usize], work: &mut Hungarian) {
     let inf = f64::INFINITY;
-    let mut u = vec![0.0; k + 1];
-    let mut v = vec![0.0; k + 1];
-    let mut p = vec![0usize; k + 1];
-    let mut way = vec![0usize; k + 1];
-    let mut minv = vec![inf; k + 1];
-    let mut used = vec![false; k + 1];
+    let Hungarian {
+        u,
+        v,
+        p,
+        way,
+        minv,
+        used,
+    } = work;
+    for buffer in [&mut *u, &mut *v] {
+        buffer.clear();
+        buffer.resize(k + 1, 0.0);
+    }
+    for buffer in [&mut *p, &mut *way] {
+        buffer.clear();
+        buffer.resize(k + 1, 0);
+    }
+    minv.resize(k + 1, inf);
+    used.resize(k + 1, false);
+    let (minv, used) = (&mut minv[..k + 1], &mut used[..k + 1]);
     for i in 1..=k {
         p[0] = i;
         let mut j0 = 0;
@@ -141,6 +166,7 @@ impl SwapKernel {
         let mut set: Vec<u32> = Vec::with_capacity(k_max);
         let mut cost = vec![0.0f64; k_max * k_max];
         let mut perm = vec![0usize; k_max];
+        let mut hungarian = Hungarian::default();
         let mut tile_values: Vec<[f32; D]> = Vec::with_capacity(n as usize);
         let mut neighbours = vec![[0.0f32; D]; scratch.taps];
         // The set's values before a kept permutation.
@@ -213,7 +239,7 @@ impl SwapKernel {
                         );
                     }
                 }
-                min_cost_assignment(&cost[..k * k], k, &mut perm[..k]);
+                min_cost_assignment(&cost[..k * k], k, &mut perm[..k], &mut hungarian);
                 let before: f64 = (0..k).map(|r| cost[r * k + r]).sum();
                 let after: f64 = (0..k).map(|r| cost[r * k + perm[r]]).sum();
                 result.attempted += 1;
@@ -296,7 +322,7 @@ mod tests {
                     })
                     .collect();
                 let mut perm = vec![0; k];
-                min_cost_assignment(&cost, k, &mut perm);
+                min_cost_assignment(&cost, k, &mut perm, &mut Hungarian::default());
                 let total = |p: &[usize]| (0..k).map(|r| cost[r * k + p[r]]).sum::<f64>();
                 let mut sorted = perm.clone();
                 sorted.sort_unstable();

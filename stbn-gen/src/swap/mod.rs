@@ -95,6 +95,7 @@ mod tests;
 
 pub use assignment::{ASSIGNMENT_SET, ASSIGNMENT_TILE_TARGET, MAX_ASSIGNMENT};
 pub use energy::SwapKernel;
+pub(crate) use simd::{Build, widest_build};
 
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;

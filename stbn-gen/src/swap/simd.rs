@@ -9,6 +9,50 @@ use super::region::Region;
 use super::{PassPlan, TileResult};
 use crate::schedule::Tile;
 
+/// A build of a tile loop.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Build {
+    /// The portable x86-64 baseline (SSE2), or whatever the target has elsewhere.
+    Portable,
+    /// Compiled with AVX2 enabled.
+    Avx2,
+    /// Compiled with AVX-512F (and, for the filter-adapted scans, AVX-512BW) enabled; picked only
+    /// where the CPU has both.
+    Avx512,
+}
+
+/// The environment variable that caps the tile loop's build, for measuring a narrower machine
+/// class on a wider one: `avx2` or `sse2` (any other value, or none, leaves the widest the CPU
+/// has). Read once per process. All builds give the same bits, so it changes only the speed.
+const SIMD_CAP_VARIABLE: &str = "STBN_SWAP_SIMD";
+
+/// The widest build of the tile loops (this module's and the filter-adapted optimiser's) this CPU
+/// runs, capped by [`SIMD_CAP_VARIABLE`]; decided once per process.
+pub(crate) fn widest_build() -> Build {
+    static CHOSEN: std::sync::OnceLock<Build> = std::sync::OnceLock::new();
+    *CHOSEN.get_or_init(|| {
+        let cap = match std::env::var(SIMD_CAP_VARIABLE).as_deref() {
+            Ok("sse2") => Build::Portable,
+            Ok("avx2") => Build::Avx2,
+            _ => Build::Avx512,
+        };
+        #[cfg(target_arch = "x86_64")]
+        {
+            if cap == Build::Avx512
+                && std::arch::is_x86_feature_detected!("avx512f")
+                && std::arch::is_x86_feature_detected!("avx512bw")
+            {
+                return Build::Avx512;
+            }
+            if cap != Build::Portable && std::arch::is_x86_feature_detected!("avx2") {
+                return Build::Avx2;
+            }
+        }
+        let _ = cap;
+        Build::Portable
+    })
+}
+
 impl SwapKernel {
     /// [`SwapKernel::run_tile`] for this kernel's value dimension, compiled for AVX-512 or AVX2
     /// where the CPU has it. Those builds only widen the vector loops (16 or 8 `f32` lanes
@@ -24,18 +68,17 @@ impl SwapKernel {
         rng: ChaCha8Rng,
         plan: &PassPlan,
     ) -> TileResult {
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx512f") {
-            // SAFETY: `run_tile_avx512` only requires AVX-512F, which the CPU was just checked to
-            // have.
-            return unsafe { self.run_tile_avx512(region, tile, rng, plan) };
+        match widest_build() {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `widest_build` picks AVX-512 only where the CPU has AVX-512F, all that
+            // `run_tile_avx512` requires.
+            Build::Avx512 => unsafe { self.run_tile_avx512(region, tile, rng, plan) },
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `widest_build` picks AVX2 only where the CPU has it, all that
+            // `run_tile_avx2` requires.
+            Build::Avx2 => unsafe { self.run_tile_avx2(region, tile, rng, plan) },
+            _ => self.run_tile_dims(region, tile, rng, plan),
         }
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: `run_tile_avx2` only requires AVX2, which the CPU was just checked to have.
-            return unsafe { self.run_tile_avx2(region, tile, rng, plan) };
-        }
-        self.run_tile_dims(region, tile, rng, plan)
     }
 
     /// [`SwapKernel::run_tile_dims`] compiled with AVX-512F enabled.
@@ -116,12 +159,6 @@ mod tests {
             std::arch::is_x86_feature_detected!("avx2"),
             "this test needs an x86-64 CPU with AVX2 to compare the builds"
         );
-        #[derive(Clone, Copy, Debug)]
-        enum Build {
-            Portable,
-            Avx2,
-            Avx512,
-        }
         let mut builds = vec![Build::Avx2];
         if std::arch::is_x86_feature_detected!("avx512f") {
             builds.push(Build::Avx512);
