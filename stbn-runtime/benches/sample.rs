@@ -7,13 +7,16 @@
 //! `fill_frame`, and `plain_loop`: a hand-written loop that decodes the frame's bytes straight
 //! from the payload (no wrapping, no header), the floor a general sampler is measured against.
 //!
-//! Vector masks (groups `vec2_<enc>`, `unitvec3_oct_<enc>`, `unitvec3_signed_<enc>`):
-//! `sample_vector` (value and pdf), `sample_vector` through an offset view, `sample_vec2` /
-//! `sample_vec3`,
-//! and `plain_loop`: the same decode by hand (value map, octahedral decode or normalisation) from
-//! the payload.
+//! Vector masks (groups `vec2_<enc>_1080p`, `unitvec3_oct_<enc>_1080p`,
+//! `unitvec3_signed_<enc>_1080p`): one 1920×1080 frame per iteration, the mask tiled over it,
+//! row by row into a row buffer: `hand_written` (the voxel index by masks, the bytes decoded with
+//! std's `sqrt`), `hand_written_crate_decode` (octahedral only: the same loop calling
+//! `octahedral_decode`, the samplers' own numerics), `sample` (`sample_vec2` / `sample_vec3` per
+//! pixel), `sample_vector`, `fill_vector_row`, and `sample` / `fill_vector_row` through an offset
+//! view.
 //!
 //! `cargo bench -p stbn-runtime --bench sample -- --warm-up-time 1 --measurement-time 3`
+//! (`-- _1080p` for the vector groups alone)
 
 use std::hint::black_box;
 
@@ -21,7 +24,7 @@ use criterion::{BenchmarkGroup, Criterion, Throughput, criterion_group, criterio
 use stbn_runtime::glam::{Vec2, Vec3};
 use stbn_runtime::{
     Compression, Encoding, MaskHeader, OffsetStbn, SampleOffset, Space, Stbn, ValueMap,
-    VectorOutput, VectorSample,
+    VectorOutput, VectorSample, octahedral_decode,
 };
 
 const W: u32 = 128;
@@ -214,15 +217,16 @@ fn bench_rows<V: Copy>(
     });
 }
 
-/// The vector benches of one mask layout: `hand_written` (the voxel index by masks, the bytes
-/// decoded with std's `sqrt`, no header), the per-sample methods and the row fills, each
-/// directly and through an offset view, into 1080p rows of `V`.
+/// The vector benches of one mask layout (see the module docs) into 1080p rows of `V`:
+/// `by_hand` decodes the voxel at an element index, `crate_decode` too (when given) with the
+/// crate's public decode.
 fn bench_vector_frame<V: Copy + Default + VectorOutput>(
     c: &mut Criterion,
     name: &str,
     header: MaskHeader,
     sample: impl Fn(&OffsetStbn<'_>, i32, i32, u32) -> V,
     by_hand: impl Fn(&[u8], usize) -> V,
+    crate_decode: Option<impl Fn(&[u8], usize) -> V>,
 ) {
     let bytes = random_blob(header);
     let mask = Stbn::from_bytes(&bytes).unwrap();
@@ -248,6 +252,20 @@ fn bench_vector_frame<V: Copy + Default + VectorOutput>(
             }
         },
     );
+    if let Some(decode) = crate_decode {
+        bench_rows(
+            &mut group,
+            "hand_written_crate_decode",
+            V::default(),
+            |y, f, row| {
+                let base = ((f % D) * H + (y as u32 % H)) * W;
+                for (x, v) in row.iter_mut().enumerate() {
+                    let voxel = (base + x as u32 % W) as usize * channels;
+                    *v = decode(data, voxel);
+                }
+            },
+        );
+    }
     let plain = OffsetStbn::from(&mask);
     bench_rows(&mut group, "sample", V::default(), |y, f, row: &mut [V]| {
         for (x, v) in row.iter_mut().enumerate() {
@@ -311,6 +329,7 @@ fn vector_sampling(c: &mut Criterion) {
             header(2, encoding, Space::UnitVec, ValueMap::Octahedral),
             |m, x, y, f| m.sample_vec3(x, y, f),
             |d, i| octahedral_by_hand(u(d, i) * 2.0 - 1.0, u(d, i + 1) * 2.0 - 1.0),
+            Some(|d: &[u8], i| octahedral_decode(Vec2::new(u(d, i), u(d, i + 1)) * 2.0 - 1.0)),
         );
     }
     for encoding in [Encoding::Unorm8, Encoding::Unorm16, Encoding::F32] {
@@ -324,6 +343,7 @@ fn vector_sampling(c: &mut Criterion) {
                 let v = Vec3::new(u(d, i), u(d, i + 1), u(d, i + 2)) * 2.0 - 1.0;
                 v * (1.0 / v.dot(v).sqrt())
             },
+            None::<fn(&[u8], usize) -> Vec3>,
         );
         bench_vector_frame(
             c,
@@ -331,6 +351,7 @@ fn vector_sampling(c: &mut Criterion) {
             header(2, encoding, Space::Vec, ValueMap::Unit),
             |m, x, y, f| m.sample_vec2(x, y, f),
             |d, i| Vec2::new(u(d, i), u(d, i + 1)),
+            None::<fn(&[u8], usize) -> Vec2>,
         );
     }
 }

@@ -25,45 +25,47 @@ pub struct VectorSample {
 /// Decodes an octahedral-mapped unit vector from its two coordinates `e` in `[-1, 1]²`
 /// (Cigolle et al., "A Survey of Efficient Representations for Independent Unit Vectors",
 /// 2014). The result has length 1 (within `f32` rounding) for every input, including the
-/// corners and the fold lines.
+/// corners and the fold lines, and is bit for bit what the samplers return for an octahedral
+/// mask whose stored coordinates map to `e`.
 #[must_use]
 pub fn octahedral_decode(e: Vec2) -> Vec3 {
-    let [x, y, z, _] = octahedral_unit(e.x, e.y);
-    Vec3::new(x, y, z)
+    // The operations of `voxel_value::<Octahedral, _>`, so that the samplers match this.
+    let v = octahedral_unfold(e.x, e.y);
+    let scale = unit_scale(v);
+    Vec3::new(v[0] * scale, v[1] * scale, v[2] * scale)
 }
 
-/// [`octahedral_decode`] of `(ex, ey)` as `[x, y, z, 0]`: straight-line `f32` arithmetic, so that
-/// loops over it vectorise.
+/// The octahedral unfolding of `(ex, ey)` as `[x, y, z, 0]`, before normalisation (its length
+/// is at least `1/sqrt(3)`): straight-line `f32` arithmetic, so that loops over it vectorise.
 #[inline(always)]
-fn octahedral_unit(ex: f32, ey: f32) -> [f32; 4] {
-    let z = 1.0 - ex.abs() - ey.abs();
+fn octahedral_unfold(ex: f32, ey: f32) -> [f32; 4] {
+    let (ax, ay) = (ex.abs(), ey.abs());
+    let z = 1.0 - ax - ay;
     // The lower hemisphere (z < 0) was folded over the diagonals: unfold it without a branch
     // (the fold is a coin flip per sample, and a mispredicted branch cost more than this):
-    // x − t·sign(x) with t = max(−z, 0) is (1 − |y|)·sign(x) where z < 0 and x elsewhere.
+    // with t = max(−z, 0), (|x| − t)·sign(x) is (1 − |y|)·sign(x) where z < 0 and x elsewhere.
+    // Copying the sign bit (−0.0 included) costs less than multiplying by the sign.
     let t = (-z).max(0.0);
-    let x = ex - t * sign_not_zero(ex);
-    let y = ey - t * sign_not_zero(ey);
     // |x| + |y| + |z| >= 1 whatever the input, so the squared length is at least 1/3.
-    let r = inverse_sqrt(x * x + y * y + z * z);
-    [x * r, y * r, z * r, 0.0]
+    [(ax - t).copysign(ex), (ay - t).copysign(ey), z, 0.0]
 }
 
 /// `1 / sqrt(d)` for a normal `d > 0`, within 1 ulp (1.2e-7 relative): an integer
-/// estimate (relative error below 3.5%) refined by three Newton steps.
+/// estimate (relative error below 3.5%) refined by a Halley step (cubic) and a Newton step.
 ///
-/// Plain `f32` arithmetic rather than a square root: `no_std` has no `sqrt` that LLVM can
-/// vectorise, and this lets the row fills decode 4 voxels per instruction on any x86-64.
+/// Plain `f32` arithmetic rather than a square root: `no_std` on the crate's MSRV has no
+/// `sqrt` that LLVM can vectorise without `unsafe`, and this lets the row fills normalise 4
+/// voxels per SSE2 instruction on any x86-64.
 /// `d = 0` gives a large finite value, so `0 * inverse_sqrt(0)` is 0; a negative or NaN `d`
 /// (only from a hand-made F32 blob) gives an unspecified value without panicking.
 #[inline(always)]
 fn inverse_sqrt(d: f32) -> f32 {
-    let half = 0.5 * d;
-    let mut y = f32::from_bits(0x5F37_5A86u32.wrapping_sub(d.to_bits() >> 1));
-    y *= 1.5 - half * y * y;
-    y *= 1.5 - half * y * y;
+    let y = f32::from_bits(0x5F37_5A86u32.wrapping_sub(d.to_bits() >> 1));
+    let t = d * y * y;
+    let y = y * (1.875 - t * (1.25 - 0.375 * t));
     // The last step adds its small correction to `y` rather than scaling it, so the final
     // rounding is that of the sum: exact for `d = 1` (the pole of every direction space).
-    y + y * (0.5 - half * y * y)
+    y + y * (0.5 - 0.5 * d * y * y)
 }
 
 /// Encodes a unit vector `n` as the octahedral coordinates in `[-1, 1]²` that
@@ -255,8 +257,13 @@ trait PlanVisitor {
     ) -> Self::Out;
 }
 
-/// The value of one voxel from its first `C` stored unit values `u` (later lanes 0).
+/// The value of one voxel from its first `C` stored unit values `u` (later lanes 0), in two
+/// steps so that fills can run each over a block: [`value`](Self::value), then, for unit
+/// values, a multiplication by [`unit_scale`].
 trait ValueTransform {
+    /// Whether the value is scaled to length 1 after [`value`](Self::value).
+    const UNIT: bool;
+    /// The value before the scaling to length 1.
     fn value<const C: usize>(u: [f32; 4], plan: &VectorPlan) -> [f32; 4];
 }
 
@@ -268,6 +275,7 @@ struct Normalise;
 struct Octahedral;
 
 impl ValueTransform for Keep {
+    const UNIT: bool = false;
     #[inline(always)]
     fn value<const C: usize>(u: [f32; 4], plan: &VectorPlan) -> [f32; 4] {
         let mut v = [0.0; 4];
@@ -279,27 +287,45 @@ impl ValueTransform for Keep {
 }
 
 impl ValueTransform for Normalise {
+    const UNIT: bool = true;
     #[inline(always)]
     fn value<const C: usize>(u: [f32; 4], plan: &VectorPlan) -> [f32; 4] {
-        let v = Keep::value::<C>(u, plan);
-        let d = v.iter().take(C).fold(0.0, |d, c| d + c * c);
-        // A zero vector (never a quantised ±1, circle or sphere value) stays zero: the guard
-        // keeps hand-made blobs from producing NaN.
-        let r = if d > 0.0 { inverse_sqrt(d) } else { 1.0 };
-        v.map(|c| c * r)
+        Keep::value::<C>(u, plan)
     }
 }
 
 impl ValueTransform for Octahedral {
+    const UNIT: bool = true;
     #[inline(always)]
     fn value<const C: usize>(u: [f32; 4], plan: &VectorPlan) -> [f32; 4] {
         let e = Keep::value::<C>(u, plan);
-        octahedral_unit(e[0], e[1])
+        octahedral_unfold(e[0], e[1])
     }
 }
 
-/// Voxels a row fill decodes per block: its stored elements go through a stack buffer of
-/// `4 * FILL_BLOCK` `f32`s.
+/// The factor that scales `v` to length 1: `1 / |v|`, or 1 for a zero vector (never a
+/// quantised ±1, circle, sphere or octahedral value; the guard keeps hand-made blobs from
+/// producing NaN).
+#[inline(always)]
+fn unit_scale(v: [f32; 4]) -> f32 {
+    let d = v[0] * v[0] + v[1] * v[1] + v[2] * v[2] + v[3] * v[3];
+    if d > 0.0 { inverse_sqrt(d) } else { 1.0 }
+}
+
+/// The value of a voxel whose `C` value channels hold the stored unit values `u`: what every
+/// per-sample read returns, and what the fills compute in the same operations over a block.
+#[inline(always)]
+fn voxel_value<T: ValueTransform, const C: usize>(u: [f32; 4], plan: &VectorPlan) -> [f32; 4] {
+    let v = T::value::<C>(u, plan);
+    if T::UNIT {
+        let scale = unit_scale(v);
+        v.map(|c| c * scale)
+    } else {
+        v
+    }
+}
+
+/// Voxels a row fill decodes per block, in stack buffers of `9 * FILL_BLOCK` `f32`s (2.3 KB).
 const FILL_BLOCK: usize = 64;
 
 impl Stbn<'_> {
@@ -431,15 +457,10 @@ impl Stbn<'_> {
         })
     }
 
-    /// The decode every vector read shares: the output for the voxel whose channel-0 element
-    /// is `voxel` and whose `C` value channels hold the stored unit values `u`.
+    /// The output for `value`, the value of the voxel whose `S` elements start at element
+    /// `voxel`.
     #[inline(always)]
-    fn vector_output<V: VectorOutput, T: ValueTransform, const C: usize, const S: usize>(
-        &self,
-        u: [f32; 4],
-        voxel: usize,
-    ) -> V {
-        let value = T::value::<C>(u, &self.plan);
+    fn vector_output<V: VectorOutput, const S: usize>(&self, value: [f32; 4], voxel: usize) -> V {
         let pdf = if V::NEEDS_PDF {
             self.vector_pdf::<S>(voxel, value)
         } else {
@@ -474,7 +495,7 @@ struct VoxelVisitor<'s, 'a, V> {
 impl<V: VectorOutput> PlanVisitor for VoxelVisitor<'_, '_, V> {
     type Out = V;
     #[inline(always)]
-    fn visit<T: ValueTransform, const C: usize, const S: usize>(self, _: &VectorPlan) -> V {
+    fn visit<T: ValueTransform, const C: usize, const S: usize>(self, plan: &VectorPlan) -> V {
         let data = self.mask.data();
         let i = self.voxel;
         let mut u = [0.0; 4];
@@ -487,13 +508,15 @@ impl<V: VectorOutput> PlanVisitor for VoxelVisitor<'_, '_, V> {
             Encoding::F32 => &data[4 * i..4 * (i + C)],
         };
         decode_elements(encoding, bytes, &mut u[..C]);
-        self.mask.vector_output::<V, T, C, S>(u, i)
+        let value = voxel_value::<T, C>(u, plan);
+        self.mask.vector_output::<V, S>(value, i)
     }
 }
 
 /// Decodes a run of contiguous voxels, the first with channel-0 element index `first`, into
-/// `out`: per block, the elements go through one vectorised conversion, then the values are
-/// computed with the per-voxel code of [`VoxelVisitor`], in a loop that vectorises too.
+/// `out`, block by block in separate passes: one vectorised element conversion, then the
+/// steps of [`voxel_value`] each over the whole block (short dependency chains, so that many
+/// voxels are in flight), then the outputs.
 struct RunVisitor<'s, 'a, 'o, V> {
     mask: &'s Stbn<'a>,
     first: usize,
@@ -503,24 +526,67 @@ struct RunVisitor<'s, 'a, 'o, V> {
 impl<V: VectorOutput> PlanVisitor for RunVisitor<'_, '_, '_, V> {
     type Out = ();
     #[inline(always)]
-    fn visit<T: ValueTransform, const C: usize, const S: usize>(self, _: &VectorPlan) {
+    fn visit<T: ValueTransform, const C: usize, const S: usize>(self, plan: &VectorPlan) {
         let mask = self.mask;
         let encoding = mask.encoding();
         let bpe = encoding.bytes_per_element();
-        let mut buf = [0.0f32; 4 * FILL_BLOCK];
+        let mut elements = [0.0f32; 4 * FILL_BLOCK];
+        // The block's values, one array per component, and their unit scales.
+        let mut xs = [0.0f32; FILL_BLOCK];
+        let mut ys = [0.0f32; FILL_BLOCK];
+        let mut zs = [0.0f32; FILL_BLOCK];
+        let mut ws = [0.0f32; FILL_BLOCK];
+        let mut scales = [1.0f32; FILL_BLOCK];
         for (k, block) in self.out.chunks_mut(FILL_BLOCK).enumerate() {
             let first = self.first + k * FILL_BLOCK * S;
-            let elements = &mut buf[..block.len() * S];
+            let elements = &mut elements[..block.len() * S];
             let len = elements.len();
             decode_elements(
                 encoding,
                 &mask.data()[first * bpe..(first + len) * bpe],
                 elements,
             );
-            for (i, (o, e)) in block.iter_mut().zip(elements.chunks_exact(S)).enumerate() {
+            if !T::UNIT {
+                // Nothing to scale: one pass.
+                for (i, (o, e)) in block.iter_mut().zip(elements.chunks_exact(S)).enumerate() {
+                    let mut u = [0.0; 4];
+                    u[..C].copy_from_slice(&e[..C]);
+                    let value = T::value::<C>(u, plan);
+                    *o = mask.vector_output::<V, S>(value, first + i * S);
+                }
+                continue;
+            }
+            for ((((e, x), y), z), w) in elements
+                .chunks_exact(S)
+                .zip(&mut xs)
+                .zip(&mut ys)
+                .zip(&mut zs)
+                .zip(&mut ws)
+            {
                 let mut u = [0.0; 4];
                 u[..C].copy_from_slice(&e[..C]);
-                *o = mask.vector_output::<V, T, C, S>(u, first + i * S);
+                [*x, *y, *z, *w] = T::value::<C>(u, plan);
+            }
+            for ((((scale, x), y), z), w) in scales[..block.len()]
+                .iter_mut()
+                .zip(&xs)
+                .zip(&ys)
+                .zip(&zs)
+                .zip(&ws)
+            {
+                *scale = unit_scale([*x, *y, *z, *w]);
+            }
+            for (i, (((((o, x), y), z), w), scale)) in block
+                .iter_mut()
+                .zip(&xs)
+                .zip(&ys)
+                .zip(&zs)
+                .zip(&ws)
+                .zip(&scales)
+                .enumerate()
+            {
+                let value = [*x, *y, *z, *w].map(|c| c * scale);
+                *o = mask.vector_output::<V, S>(value, first + i * S);
             }
         }
     }
