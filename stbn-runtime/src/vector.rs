@@ -308,7 +308,19 @@ impl ValueTransform for Octahedral {
 /// producing NaN).
 #[inline(always)]
 fn unit_scale(v: [f32; 4]) -> f32 {
-    let d = v[0] * v[0] + v[1] * v[1] + v[2] * v[2] + v[3] * v[3];
+    scale_of_squared_length(squared_length(v))
+}
+
+/// `|v|²`, summed in lane order.
+#[inline(always)]
+fn squared_length(v: [f32; 4]) -> f32 {
+    v[0] * v[0] + v[1] * v[1] + v[2] * v[2] + v[3] * v[3]
+}
+
+/// [`unit_scale`] from the squared length `d`; the fills run it as a pass of its own, whose
+/// short loop body keeps more voxels in flight.
+#[inline(always)]
+fn scale_of_squared_length(d: f32) -> f32 {
     if d > 0.0 { inverse_sqrt(d) } else { 1.0 }
 }
 
@@ -574,7 +586,10 @@ impl<V: VectorOutput> PlanVisitor for RunVisitor<'_, '_, '_, V> {
                 .zip(&zs)
                 .zip(&ws)
             {
-                *scale = unit_scale([*x, *y, *z, *w]);
+                *scale = squared_length([*x, *y, *z, *w]);
+            }
+            for scale in &mut scales[..block.len()] {
+                *scale = scale_of_squared_length(*scale);
             }
             for (i, (((((o, x), y), z), w), scale)) in block
                 .iter_mut()
