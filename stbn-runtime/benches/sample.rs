@@ -7,20 +7,24 @@
 //! `fill_frame`, and `plain_loop`: a hand-written loop that decodes the frame's bytes straight
 //! from the payload (no wrapping, no header), the floor a general sampler is measured against.
 //!
-//! Vector masks (groups `vec2_<enc>`, `unitvec3_oct_<enc>`, `unitvec3_signed_<enc>`):
-//! `sample_vector` (value and pdf), `sample_vector` through an offset view, `sample_vec2` /
-//! `sample_vec3`,
-//! and `plain_loop`: the same decode by hand (value map, octahedral decode or normalisation) from
-//! the payload.
+//! Vector masks (groups `vec2_<enc>_1080p`, `unitvec3_oct_<enc>_1080p`,
+//! `unitvec3_signed_<enc>_1080p`): one 1920×1080 frame per iteration, the mask tiled over it,
+//! row by row into a row buffer: `hand_written` (the voxel index by masks, the bytes decoded with
+//! std's `sqrt`), `hand_written_crate_decode` (octahedral only: the same loop calling
+//! `octahedral_decode`, the samplers' own numerics), `sample` (`sample_vec2` / `sample_vec3` per
+//! pixel), `sample_vector`, `fill_vector_row`, and `sample` / `fill_vector_row` through an offset
+//! view.
 //!
 //! `cargo bench -p stbn-runtime --bench sample -- --warm-up-time 1 --measurement-time 3`
+//! (`-- _1080p` for the vector groups alone)
 
 use std::hint::black_box;
 
 use criterion::{BenchmarkGroup, Criterion, Throughput, criterion_group, criterion_main};
 use stbn_runtime::glam::{Vec2, Vec3};
 use stbn_runtime::{
-    Compression, Encoding, MaskHeader, SampleOffset, Space, Stbn, ValueMap, octahedral_decode,
+    Compression, Encoding, MaskHeader, OffsetStbn, SampleOffset, Space, Stbn, ValueMap,
+    VectorOutput, VectorSample, octahedral_decode,
 };
 
 const W: u32 = 128;
@@ -159,7 +163,7 @@ fn bench_encoding(c: &mut Criterion, name: &str, encoding: Encoding) {
     group.finish();
 }
 
-/// The stored unit value of element `i` of `data`, decoded as the runtime does.
+/// The stored unit value of element `i` of `data`, decoded as a caller would by hand.
 #[inline(always)]
 fn unit(data: &[u8], i: usize, encoding: Encoding) -> f32 {
     match encoding {
@@ -177,109 +181,185 @@ fn unit(data: &[u8], i: usize, encoding: Encoding) -> f32 {
     }
 }
 
-/// The vector layouts benchmarked: name, space, value map, channels.
-const VECTOR_LAYOUTS: [(&str, Space, ValueMap, u8); 3] = [
-    ("vec2", Space::Vec, ValueMap::Unit, 2),
-    ("unitvec3_oct", Space::UnitVec, ValueMap::Octahedral, 2),
-    ("unitvec3_signed", Space::UnitVec, ValueMap::Signed, 3),
-];
+/// Width and height of the frame the vector benches fill: 1080p, the mask tiled over it.
+const FRAME_W: usize = 1920;
+const FRAME_H: usize = 1080;
 
-/// Loops calling `read(x, y, frame)` for every pixel of one frame and summing the results'
-/// components (so nothing is optimised away), as `name`.
-fn bench_pixels(
+/// A hand-written octahedral decode with std's `sqrt`: `e` in `[-1, 1]²` to a unit vector.
+#[inline(always)]
+fn octahedral_by_hand(ex: f32, ey: f32) -> Vec3 {
+    let z = 1.0 - ex.abs() - ey.abs();
+    let t = (-z).max(0.0);
+    let (x, y) = (ex - t.copysign(ex), ey - t.copysign(ey));
+    let r = 1.0 / (x * x + y * y + z * z).sqrt();
+    Vec3::new(x * r, y * r, z * r)
+}
+
+/// One 1080p frame per iteration, row by row into a 1920-value row buffer: `read(x, y, frame,
+/// row)` fills `row` for row `y`, then the row is handed to `black_box`.
+fn bench_rows<V: Copy>(
     group: &mut BenchmarkGroup<'_, criterion::measurement::WallTime>,
     name: &str,
-    mut read: impl FnMut(i32, i32, u32) -> f32,
+    zero: V,
+    mut read: impl FnMut(i32, u32, &mut [V]),
 ) {
     let mut frame = 0u32;
+    let mut row = vec![zero; FRAME_W];
     group.bench_function(name, |b| {
         b.iter(|| {
             frame = frame.wrapping_add(1);
             let f = black_box(frame);
-            let mut sum = 0.0f32;
-            for y in 0..H as i32 {
-                for x in 0..W as i32 {
-                    sum += read(x, y, f);
-                }
+            for y in 0..FRAME_H as i32 {
+                read(y, f, &mut row);
+                black_box(&mut row);
             }
-            black_box(sum)
         })
     });
 }
 
-fn bench_vector(c: &mut Criterion, layout: (&str, Space, ValueMap, u8), encoding: Encoding) {
-    let (name, space, map, channels) = layout;
-    let header = MaskHeader::new(W, H, D, channels, encoding).with_space(space, map, 0.0, 0.0);
+/// The vector benches of one mask layout (see the module docs) into 1080p rows of `V`:
+/// `by_hand` decodes the voxel at an element index, `crate_decode` too (when given) with the
+/// crate's public decode.
+fn bench_vector_frame<V: Copy + Default + VectorOutput>(
+    c: &mut Criterion,
+    name: &str,
+    header: MaskHeader,
+    sample: impl Fn(&OffsetStbn<'_>, i32, i32, u32) -> V,
+    by_hand: impl Fn(&[u8], usize) -> V,
+    crate_decode: Option<impl Fn(&[u8], usize) -> V>,
+) {
     let bytes = random_blob(header);
     let mask = Stbn::from_bytes(&bytes).unwrap();
-    let suffix = match encoding {
+    let suffix = match header.encoding {
         Encoding::Unorm8 => "unorm8",
         Encoding::Unorm16 => "unorm16",
         Encoding::F32 => "f32",
     };
-    let mut group = c.benchmark_group(format!("{name}_{suffix}"));
-    group.throughput(Throughput::Elements(u64::from(W * H)));
-    bench_pixels(&mut group, "sample_vector_loop", |x, y, f| {
-        let s = mask.sample_vector(x, y, f);
-        s.value.x + s.value.y + s.value.z + s.pdf
+    let mut group = c.benchmark_group(format!("{name}_{suffix}_1080p"));
+    group.throughput(Throughput::Elements((FRAME_W * FRAME_H) as u64));
+    group.sample_size(20);
+    let data = mask.data();
+    let channels = usize::from(header.channels);
+    bench_rows(
+        &mut group,
+        "hand_written",
+        V::default(),
+        |y, f, row: &mut [V]| {
+            let base = ((f % D) * H + (y as u32 % H)) * W;
+            for (x, v) in row.iter_mut().enumerate() {
+                let voxel = (base + x as u32 % W) as usize * channels;
+                *v = by_hand(data, voxel);
+            }
+        },
+    );
+    if let Some(decode) = crate_decode {
+        bench_rows(
+            &mut group,
+            "hand_written_crate_decode",
+            V::default(),
+            |y, f, row| {
+                let base = ((f % D) * H + (y as u32 % H)) * W;
+                for (x, v) in row.iter_mut().enumerate() {
+                    let voxel = (base + x as u32 % W) as usize * channels;
+                    *v = decode(data, voxel);
+                }
+            },
+        );
+    }
+    let plain = OffsetStbn::from(&mask);
+    bench_rows(&mut group, "sample", V::default(), |y, f, row: &mut [V]| {
+        for (x, v) in row.iter_mut().enumerate() {
+            *v = sample(&plain, x as i32, y, f);
+        }
     });
+    let zero = mask.sample_vector(0, 0, 0);
+    bench_rows(
+        &mut group,
+        "sample_vector",
+        zero,
+        |y, f, row: &mut [VectorSample]| {
+            for (x, v) in row.iter_mut().enumerate() {
+                *v = mask.sample_vector(x as i32, y, f);
+            }
+        },
+    );
+    bench_rows(
+        &mut group,
+        "fill_vector_row",
+        V::default(),
+        |y, f, row: &mut [V]| {
+            mask.fill_vector_row(0, y, f, row);
+        },
+    );
     let view = mask.offset(black_box(SampleOffset {
         x: 77,
         y: -13,
         frame: 5,
     }));
-    bench_pixels(&mut group, "sample_vector_offset_loop", |x, y, f| {
-        let s = view.sample_vector(x, y, f);
-        s.value.x + s.value.y + s.value.z + s.pdf
-    });
-    if space == Space::Vec {
-        bench_pixels(&mut group, "sample_vec2_loop", |x, y, f| {
-            let v = mask.sample_vec2(x, y, f);
-            v.x + v.y
-        });
-    } else {
-        bench_pixels(&mut group, "sample_vec3_loop", |x, y, f| {
-            let v = mask.sample_vec3(x, y, f);
-            v.x + v.y + v.z
-        });
-    }
-    // The baseline: the frame's voxels decoded straight from the payload, in order.
-    let data = mask.data();
-    let ch = usize::from(channels);
-    bench_pixels(&mut group, "plain_loop", |x, y, f| {
-        let voxel = (((f % D) * H + y as u32) * W + x as u32) as usize * ch;
-        let u = |c: usize| unit(data, voxel + c, encoding);
-        match map {
-            ValueMap::Unit => {
-                let v = Vec2::new(u(0), u(1));
-                v.x + v.y
+    bench_rows(
+        &mut group,
+        "offset_sample",
+        V::default(),
+        |y, f, row: &mut [V]| {
+            for (x, v) in row.iter_mut().enumerate() {
+                *v = sample(&view, x as i32, y, f);
             }
-            ValueMap::Octahedral => {
-                let v = octahedral_decode(Vec2::new(u(0) * 2.0 - 1.0, u(1) * 2.0 - 1.0));
-                v.x + v.y + v.z
-            }
-            ValueMap::Signed => {
-                let v = Vec3::new(u(0) * 2.0 - 1.0, u(1) * 2.0 - 1.0, u(2) * 2.0 - 1.0);
-                let v = v.normalize_or_zero();
-                v.x + v.y + v.z
-            }
-        }
-    });
+        },
+    );
+    bench_rows(
+        &mut group,
+        "offset_fill_vector_row",
+        V::default(),
+        |y, f, row: &mut [V]| {
+            view.fill_vector_row(0, y, f, row);
+        },
+    );
     group.finish();
+}
+
+fn vector_sampling(c: &mut Criterion) {
+    let header = |channels, encoding, space, map| {
+        MaskHeader::new(W, H, D, channels, encoding).with_space(space, map, 0.0, 0.0)
+    };
+    for encoding in [Encoding::Unorm16, Encoding::Unorm8, Encoding::F32] {
+        let u = move |data: &[u8], i: usize| unit(data, i, encoding);
+        bench_vector_frame(
+            c,
+            "unitvec3_oct",
+            header(2, encoding, Space::UnitVec, ValueMap::Octahedral),
+            |m, x, y, f| m.sample_vec3(x, y, f),
+            |d, i| octahedral_by_hand(u(d, i) * 2.0 - 1.0, u(d, i + 1) * 2.0 - 1.0),
+            Some(|d: &[u8], i| octahedral_decode(Vec2::new(u(d, i), u(d, i + 1)) * 2.0 - 1.0)),
+        );
+    }
+    for encoding in [Encoding::Unorm8, Encoding::Unorm16, Encoding::F32] {
+        let u = move |data: &[u8], i: usize| unit(data, i, encoding);
+        bench_vector_frame(
+            c,
+            "unitvec3_signed",
+            header(3, encoding, Space::UnitVec, ValueMap::Signed),
+            |m, x, y, f| m.sample_vec3(x, y, f),
+            |d, i| {
+                let v = Vec3::new(u(d, i), u(d, i + 1), u(d, i + 2)) * 2.0 - 1.0;
+                v * (1.0 / v.dot(v).sqrt())
+            },
+            None::<fn(&[u8], usize) -> Vec3>,
+        );
+        bench_vector_frame(
+            c,
+            "vec2",
+            header(2, encoding, Space::Vec, ValueMap::Unit),
+            |m, x, y, f| m.sample_vec2(x, y, f),
+            |d, i| Vec2::new(u(d, i), u(d, i + 1)),
+            None::<fn(&[u8], usize) -> Vec2>,
+        );
+    }
 }
 
 fn sampling(c: &mut Criterion) {
     bench_encoding(c, "unorm8_128x128", Encoding::Unorm8);
     bench_encoding(c, "unorm16_128x128", Encoding::Unorm16);
     bench_encoding(c, "f32_128x128", Encoding::F32);
-}
-
-fn vector_sampling(c: &mut Criterion) {
-    for layout in VECTOR_LAYOUTS {
-        for encoding in [Encoding::Unorm8, Encoding::Unorm16, Encoding::F32] {
-            bench_vector(c, layout, encoding);
-        }
-    }
 }
 
 criterion_group!(benches, sampling, vector_sampling);

@@ -194,4 +194,4 @@ pub use offset::{OffsetStbn, SampleOffset};
 pub use packed::OwnedStbn;
 pub use packed::PackedStbn;
 pub use sampler::Stbn;
-pub use vector::{VectorSample, octahedral_decode, octahedral_encode};
+pub use vector::{VectorOutput, VectorSample, octahedral_decode, octahedral_encode};

@@ -2,6 +2,7 @@
 
 use core::fmt;
 
+use crate::vector::VectorPlan;
 use crate::{Encoding, Error, MaskHeader, PackedStbn, SampleOffset};
 
 /// 2^64 / g rounded to nearest, g = 1.32471795724474602596... (plastic number):
@@ -98,6 +99,8 @@ pub struct Stbn<'a> {
     y_shift: u32,
     /// `log2(width * height)` when `all_pow2`.
     z_shift: u32,
+    /// How the vector samplers turn a voxel's channels into its value.
+    pub(crate) plan: VectorPlan,
 }
 
 impl fmt::Debug for Stbn<'_> {
@@ -132,6 +135,7 @@ impl<'a> Stbn<'a> {
             all_pow2: x.pow2 && y.pow2 && z.pow2,
             y_shift: header.width.trailing_zeros(),
             z_shift: header.width.trailing_zeros() + header.height.trailing_zeros(),
+            plan: VectorPlan::new(&header),
         }
     }
 
@@ -298,35 +302,68 @@ impl<'a> Stbn<'a> {
         o: SampleOffset,
         out: &mut [f32],
     ) {
+        self.row_runs(x0, y, frame, o, out, |first, run| {
+            self.convert_run(first, run);
+        });
+    }
+
+    /// [`fill_frame`](Self::fill_frame) at offset `o`, which must be wrapped (as
+    /// [`add_offsets`](Self::add_offsets) returns it).
+    #[inline]
+    pub(crate) fn fill_frame_at(&self, frame: u32, o: SampleOffset, out: &mut [f32]) -> usize {
+        self.frame_runs(frame, o, out, |first, run| self.convert_run(first, run))
+    }
+
+    /// Splits the row of `out.len()` voxels from `(x0 + o.x, y + o.y, frame + o.frame)` (x
+    /// wrapping, so the row may repeat) into runs of voxels contiguous in the data, and calls
+    /// `run(first, part)` for each: `first` is the channel-0 element index of the run's first
+    /// voxel and `part` the matching part of `out`.
+    #[inline(always)]
+    pub(crate) fn row_runs<T>(
+        &self,
+        x0: i32,
+        y: i32,
+        frame: u32,
+        o: SampleOffset,
+        out: &mut [T],
+        mut run: impl FnMut(usize, &mut [T]),
+    ) {
         let row = self.z.wrap_unsigned(frame, o.frame) * self.frame_stride
             + self.y.wrap_signed(y, o.y) * self.row_stride;
         let width = self.header.width as usize;
         let mut x = self.x.wrap_signed(x0, o.x);
         let mut rest = out;
         while !rest.is_empty() {
-            let run = (width - x).min(rest.len());
-            let (head, tail) = core::mem::take(&mut rest).split_at_mut(run);
-            self.convert_run(row + x * self.channels, head);
+            let len = (width - x).min(rest.len());
+            let (head, tail) = core::mem::take(&mut rest).split_at_mut(len);
+            run(row + x * self.channels, head);
             rest = tail;
             x = 0;
         }
     }
 
-    /// [`fill_frame`](Self::fill_frame) at offset `o`, which must be wrapped (as
-    /// [`add_offsets`](Self::add_offsets) returns it): one contiguous run when `o` shifts
-    /// only the frame, row by row otherwise.
-    #[inline]
-    pub(crate) fn fill_frame_at(&self, frame: u32, o: SampleOffset, out: &mut [f32]) -> usize {
+    /// Splits the first `min(out.len(), width * height)` voxels of frame `frame` at offset `o`
+    /// (wrapped, as [`add_offsets`](Self::add_offsets) returns it), row-major, into runs like
+    /// [`row_runs`](Self::row_runs) and returns that count: one run when `o` shifts only the
+    /// frame, row by row otherwise.
+    #[inline(always)]
+    pub(crate) fn frame_runs<T>(
+        &self,
+        frame: u32,
+        o: SampleOffset,
+        out: &mut [T],
+        mut run: impl FnMut(usize, &mut [T]),
+    ) -> usize {
         let width = self.header.width as usize;
         let n = out.len().min(width * self.header.height as usize);
         let (head, _) = out.split_at_mut(n);
         if o.x == 0 && o.y == 0 {
             let z = self.z.wrap_unsigned(frame, o.frame);
-            self.convert_run(z * self.frame_stride, head);
+            run(z * self.frame_stride, head);
         } else {
             for (y, row) in head.chunks_mut(width).enumerate() {
                 // y < height <= 2^31, so it fits in i32.
-                self.fill_row_at(0, y as i32, frame, o, row);
+                self.row_runs(0, y as i32, frame, o, row, &mut run);
             }
         }
         n
@@ -432,19 +469,10 @@ impl<'a> Stbn<'a> {
         // Each arm is a simple zip so LLVM vectorises the contiguous (c == 1) cases;
         // the constant chunk sizes let it turn the byte gathers into wide loads.
         match (self.header.encoding, c) {
-            (Encoding::Unorm8, 1) => {
-                for (o, &q) in out.iter_mut().zip(src) {
-                    *o = unorm8(q);
-                }
-            }
+            (encoding, 1) => decode_elements(encoding, src, out),
             (Encoding::Unorm8, _) => {
                 for (o, &q) in out.iter_mut().zip(src.iter().step_by(c)) {
                     *o = unorm8(q);
-                }
-            }
-            (Encoding::Unorm16, 1) => {
-                for (o, q) in out.iter_mut().zip(src.chunks_exact(2)) {
-                    *o = unorm16(u16::from_le_bytes([q[0], q[1]]));
                 }
             }
             (Encoding::Unorm16, _) => {
@@ -452,15 +480,33 @@ impl<'a> Stbn<'a> {
                     *o = unorm16(u16::from_le_bytes([q[0], q[1]]));
                 }
             }
-            (Encoding::F32, 1) => {
-                for (o, q) in out.iter_mut().zip(src.chunks_exact(4)) {
-                    *o = f32::from_le_bytes([q[0], q[1], q[2], q[3]]);
-                }
-            }
             (Encoding::F32, _) => {
                 for (o, q) in out.iter_mut().zip(src.chunks_exact(4 * c)) {
                     *o = f32::from_le_bytes([q[0], q[1], q[2], q[3]]);
                 }
+            }
+        }
+    }
+}
+
+/// Decodes the elements of `src` in order into `out`, as many as both hold: a simple zip per
+/// encoding that LLVM vectorises.
+#[inline(always)]
+pub(crate) fn decode_elements(encoding: Encoding, src: &[u8], out: &mut [f32]) {
+    match encoding {
+        Encoding::Unorm8 => {
+            for (o, &q) in out.iter_mut().zip(src) {
+                *o = unorm8(q);
+            }
+        }
+        Encoding::Unorm16 => {
+            for (o, q) in out.iter_mut().zip(src.chunks_exact(2)) {
+                *o = unorm16(u16::from_le_bytes([q[0], q[1]]));
+            }
+        }
+        Encoding::F32 => {
+            for (o, q) in out.iter_mut().zip(src.chunks_exact(4)) {
+                *o = f32::from_le_bytes([q[0], q[1], q[2], q[3]]);
             }
         }
     }

@@ -2,10 +2,12 @@
 //! decoding and the pdf of every [`Space`].
 
 use core::f32::consts::PI;
+use core::marker::PhantomData;
 
 use glam::{Vec2, Vec3, Vec4};
 
-use crate::{OffsetStbn, SampleOffset, Space, Stbn, ValueMap};
+use crate::sampler::decode_elements;
+use crate::{Encoding, MaskHeader, OffsetStbn, SampleOffset, Space, Stbn, ValueMap};
 
 /// One vector read from a mask: the value and the density it was drawn with.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -23,18 +25,47 @@ pub struct VectorSample {
 /// Decodes an octahedral-mapped unit vector from its two coordinates `e` in `[-1, 1]²`
 /// (Cigolle et al., "A Survey of Efficient Representations for Independent Unit Vectors",
 /// 2014). The result has length 1 (within `f32` rounding) for every input, including the
-/// corners and the fold lines.
+/// corners and the fold lines, and is bit for bit what the samplers return for an octahedral
+/// mask whose stored coordinates map to `e`.
 #[must_use]
 pub fn octahedral_decode(e: Vec2) -> Vec3 {
-    let z = 1.0 - e.x.abs() - e.y.abs();
+    // The operations of `voxel_value::<Octahedral, _>`, so that the samplers match this.
+    let v = octahedral_unfold(e.x, e.y);
+    let scale = unit_scale(v);
+    Vec3::new(v[0] * scale, v[1] * scale, v[2] * scale)
+}
+
+/// The octahedral unfolding of `(ex, ey)` as `[x, y, z, 0]`, before normalisation (its length
+/// is at least `1/sqrt(3)`): straight-line `f32` arithmetic, so that loops over it vectorise.
+#[inline(always)]
+fn octahedral_unfold(ex: f32, ey: f32) -> [f32; 4] {
+    let (ax, ay) = (ex.abs(), ey.abs());
+    let z = 1.0 - ax - ay;
     // The lower hemisphere (z < 0) was folded over the diagonals: unfold it without a branch
     // (the fold is a coin flip per sample, and a mispredicted branch cost more than this):
-    // x − t·sign(x) with t = max(−z, 0) is (1 − |y|)·sign(x) where z < 0 and x elsewhere.
+    // with t = max(−z, 0), (|x| − t)·sign(x) is (1 − |y|)·sign(x) where z < 0 and x elsewhere.
+    // Copying the sign bit (−0.0 included) costs less than multiplying by the sign.
     let t = (-z).max(0.0);
-    let x = e.x - t * sign_not_zero(e.x);
-    let y = e.y - t * sign_not_zero(e.y);
-    // |x| + |y| + |z| >= 1 whatever the input, so the length is never zero.
-    Vec3::new(x, y, z).normalize()
+    // |x| + |y| + |z| >= 1 whatever the input, so the squared length is at least 1/3.
+    [(ax - t).copysign(ex), (ay - t).copysign(ey), z, 0.0]
+}
+
+/// `1 / sqrt(d)` for a normal `d > 0`, within 1 ulp (1.2e-7 relative): an integer
+/// estimate (relative error below 3.5%) refined by a Halley step (cubic) and a Newton step.
+///
+/// Plain `f32` arithmetic rather than a square root: `no_std` on the crate's MSRV has no
+/// `sqrt` that LLVM can vectorise without `unsafe`, and this lets the row fills normalise 4
+/// voxels per SSE2 instruction on any x86-64.
+/// `d = 0` gives a large finite value, so `0 * inverse_sqrt(0)` is 0; a negative or NaN `d`
+/// (only from a hand-made F32 blob) gives an unspecified value without panicking.
+#[inline(always)]
+fn inverse_sqrt(d: f32) -> f32 {
+    let y = f32::from_bits(0x5F37_5A86u32.wrapping_sub(d.to_bits() >> 1));
+    let t = d * y * y;
+    let y = y * (1.875 - t * (1.25 - 0.375 * t));
+    // The last step adds its small correction to `y` rather than scaling it, so the final
+    // rounding is that of the sum: exact for `d = 1` (the pole of every direction space).
+    y + y * (0.5 - 0.5 * d * y * y)
 }
 
 /// Encodes a unit vector `n` as the octahedral coordinates in `[-1, 1]²` that
@@ -53,11 +84,261 @@ pub fn octahedral_encode(n: Vec3) -> Vec2 {
 }
 
 /// `1.0` for `v >= 0` (`-0.0` included, as it compares equal to 0), `-1.0` otherwise.
+#[inline(always)]
 fn sign_not_zero(v: f32) -> f32 {
     // 1.0 with v's sign bit, except that -0.0 gives 1.0 like +0.0.
     let negative = u32::from(v < 0.0) << 31;
     f32::from_bits(1.0f32.to_bits() | negative)
 }
+
+/// What the vector fills write per voxel: [`Vec2`], [`Vec3`], [`Vec4`] (the value's first 2, 3
+/// or 4 components, as `sample_vec2/3/4` return them) or [`VectorSample`] (value and pdf, as
+/// [`sample_vector`](Stbn::sample_vector) returns them). Sealed: implemented for those four only.
+pub trait VectorOutput: Copy + sealed::FromValue {}
+
+mod sealed {
+    /// The conversion behind [`VectorOutput`](super::VectorOutput), private to this crate.
+    pub trait FromValue {
+        /// Whether [`from_value`](Self::from_value) reads its `pdf` (otherwise it gets 0).
+        const NEEDS_PDF: bool;
+        /// The output for the decoded value `value` (unused components 0) and its pdf.
+        fn from_value(value: [f32; 4], pdf: f32) -> Self;
+    }
+}
+
+impl sealed::FromValue for Vec2 {
+    const NEEDS_PDF: bool = false;
+    #[inline(always)]
+    fn from_value(value: [f32; 4], _: f32) -> Self {
+        Vec2::new(value[0], value[1])
+    }
+}
+
+impl sealed::FromValue for Vec3 {
+    const NEEDS_PDF: bool = false;
+    #[inline(always)]
+    fn from_value(value: [f32; 4], _: f32) -> Self {
+        Vec3::new(value[0], value[1], value[2])
+    }
+}
+
+impl sealed::FromValue for Vec4 {
+    const NEEDS_PDF: bool = false;
+    #[inline(always)]
+    fn from_value(value: [f32; 4], _: f32) -> Self {
+        Vec4::from_array(value)
+    }
+}
+
+impl sealed::FromValue for VectorSample {
+    const NEEDS_PDF: bool = true;
+    #[inline(always)]
+    fn from_value(value: [f32; 4], pdf: f32) -> Self {
+        VectorSample {
+            value: Vec4::from_array(value),
+            pdf,
+        }
+    }
+}
+
+impl VectorOutput for Vec2 {}
+impl VectorOutput for Vec3 {}
+impl VectorOutput for Vec4 {}
+impl VectorOutput for VectorSample {}
+
+/// How a mask's stored channels become its value, fixed per mask: chosen when the view is built
+/// and dispatched once per sample or once per run of a fill, so that each decode loop is
+/// straight-line code for one layout.
+#[derive(Clone, Copy)]
+pub(crate) struct VectorPlan {
+    transform: Transform,
+    layout: Layout,
+    /// The value map as `u * scale + bias`: `(1, -0)` for [`ValueMap::Unit`] (exactly `u`, since
+    /// `u + (-0.0)` is `u` for every `u`), `(2, -1)` otherwise.
+    scale: f32,
+    bias: f32,
+    pdf: Pdf,
+}
+
+/// How the pdf of a value is found.
+#[derive(Clone, Copy)]
+enum Pdf {
+    /// The same for every value.
+    Constant(f32),
+    /// `z / π` (cosine-weighted hemisphere), `z` the value's third component.
+    Cosine,
+    /// Stored in the last channel, full-range between the header's `pdf_min` and `pdf_max`.
+    Stored,
+}
+
+/// What happens to the mapped value channels.
+#[derive(Clone, Copy)]
+enum Transform {
+    /// Kept as they are.
+    Keep,
+    /// Normalised to length 1 (unit-vector spaces), a zero vector kept.
+    Normalise,
+    /// The first two decoded as an octahedral direction.
+    Octahedral,
+}
+
+/// Value channels and channels per voxel (the last one the pdf when they differ): the
+/// combinations [`MaskHeader::parse`] accepts.
+#[derive(Clone, Copy)]
+enum Layout {
+    C1S1,
+    C2S2,
+    C2S3,
+    C3S3,
+    C3S4,
+    C4S4,
+}
+
+impl VectorPlan {
+    /// The plan of a validated header.
+    pub(crate) const fn new(header: &MaskHeader) -> Self {
+        let transform = match header.value_map {
+            ValueMap::Octahedral => Transform::Octahedral,
+            _ if header.space.is_unit() => Transform::Normalise,
+            _ => Transform::Keep,
+        };
+        // Parsing allows 1..=4 channels and gives a pdf channel 2 or 3 value channels.
+        let layout = match (header.value_channels(), header.channels) {
+            (1, _) => Layout::C1S1,
+            (2, 2) => Layout::C2S2,
+            (2, _) => Layout::C2S3,
+            (3, 3) => Layout::C3S3,
+            (3, _) => Layout::C3S4,
+            _ => Layout::C4S4,
+        };
+        let (scale, bias) = match header.value_map {
+            ValueMap::Unit => (1.0, -0.0),
+            ValueMap::Signed | ValueMap::Octahedral => (2.0, -1.0),
+        };
+        Self {
+            transform,
+            layout,
+            scale,
+            bias,
+            pdf: Pdf::new(header),
+        }
+    }
+
+    /// Calls `visitor` with the transform, value channels `C` and channels per voxel `S` of
+    /// this plan as types and constants.
+    #[inline(always)]
+    fn dispatch<V: PlanVisitor>(&self, visitor: V) -> V::Out {
+        macro_rules! layouts {
+            ($t:ty) => {
+                match self.layout {
+                    Layout::C1S1 => visitor.visit::<$t, 1, 1>(self),
+                    Layout::C2S2 => visitor.visit::<$t, 2, 2>(self),
+                    Layout::C2S3 => visitor.visit::<$t, 2, 3>(self),
+                    Layout::C3S3 => visitor.visit::<$t, 3, 3>(self),
+                    Layout::C3S4 => visitor.visit::<$t, 3, 4>(self),
+                    Layout::C4S4 => visitor.visit::<$t, 4, 4>(self),
+                }
+            };
+        }
+        match self.transform {
+            Transform::Keep => layouts!(Keep),
+            Transform::Normalise => layouts!(Normalise),
+            Transform::Octahedral => layouts!(Octahedral),
+        }
+    }
+}
+
+/// Code run for one plan, with its transform `T`, `C` value channels and `S` channels per voxel.
+trait PlanVisitor {
+    type Out;
+    fn visit<T: ValueTransform, const C: usize, const S: usize>(
+        self,
+        plan: &VectorPlan,
+    ) -> Self::Out;
+}
+
+/// The value of one voxel from its first `C` stored unit values `u` (later lanes 0), in two
+/// steps so that fills can run each over a block: [`value`](Self::value), then, for unit
+/// values, a multiplication by [`unit_scale`].
+trait ValueTransform {
+    /// Whether the value is scaled to length 1 after [`value`](Self::value).
+    const UNIT: bool;
+    /// The value before the scaling to length 1.
+    fn value<const C: usize>(u: [f32; 4], plan: &VectorPlan) -> [f32; 4];
+}
+
+/// [`Transform::Keep`].
+struct Keep;
+/// [`Transform::Normalise`].
+struct Normalise;
+/// [`Transform::Octahedral`].
+struct Octahedral;
+
+impl ValueTransform for Keep {
+    const UNIT: bool = false;
+    #[inline(always)]
+    fn value<const C: usize>(u: [f32; 4], plan: &VectorPlan) -> [f32; 4] {
+        let mut v = [0.0; 4];
+        for (v, u) in v.iter_mut().zip(u).take(C) {
+            *v = u * plan.scale + plan.bias;
+        }
+        v
+    }
+}
+
+impl ValueTransform for Normalise {
+    const UNIT: bool = true;
+    #[inline(always)]
+    fn value<const C: usize>(u: [f32; 4], plan: &VectorPlan) -> [f32; 4] {
+        Keep::value::<C>(u, plan)
+    }
+}
+
+impl ValueTransform for Octahedral {
+    const UNIT: bool = true;
+    #[inline(always)]
+    fn value<const C: usize>(u: [f32; 4], plan: &VectorPlan) -> [f32; 4] {
+        let e = Keep::value::<C>(u, plan);
+        octahedral_unfold(e[0], e[1])
+    }
+}
+
+/// The factor that scales `v` to length 1: `1 / |v|`, or 1 for a zero vector (never a
+/// quantised ±1, circle, sphere or octahedral value; the guard keeps hand-made blobs from
+/// producing NaN).
+#[inline(always)]
+fn unit_scale(v: [f32; 4]) -> f32 {
+    scale_of_squared_length(squared_length(v))
+}
+
+/// `|v|²`, summed in lane order.
+#[inline(always)]
+fn squared_length(v: [f32; 4]) -> f32 {
+    v[0] * v[0] + v[1] * v[1] + v[2] * v[2] + v[3] * v[3]
+}
+
+/// [`unit_scale`] from the squared length `d`; the fills run it as a pass of its own, whose
+/// short loop body keeps more voxels in flight.
+#[inline(always)]
+fn scale_of_squared_length(d: f32) -> f32 {
+    if d > 0.0 { inverse_sqrt(d) } else { 1.0 }
+}
+
+/// The value of a voxel whose `C` value channels hold the stored unit values `u`: what every
+/// per-sample read returns, and what the fills compute in the same operations over a block.
+#[inline(always)]
+fn voxel_value<T: ValueTransform, const C: usize>(u: [f32; 4], plan: &VectorPlan) -> [f32; 4] {
+    let v = T::value::<C>(u, plan);
+    if T::UNIT {
+        let scale = unit_scale(v);
+        v.map(|c| c * scale)
+    } else {
+        v
+    }
+}
+
+/// Voxels a row fill decodes per block, in stack buffers of `9 * FILL_BLOCK` `f32`s (2.3 KB).
+const FILL_BLOCK: usize = 64;
 
 impl Stbn<'_> {
     /// What the values are samples of.
@@ -76,24 +357,24 @@ impl Stbn<'_> {
     /// with its pdf.
     ///
     /// Works for every mask: a scalar mask gives `(u, 0, 0, 0)` with pdf 1.
-    // Not `#[inline]`: inlined into a caller's pixel loop it measures slower (BENCHMARKS.md).
     #[must_use]
+    #[inline]
     pub fn sample_vector(&self, x: i32, y: i32, frame: u32) -> VectorSample {
-        self.vector_at(self.voxel(x, y, frame, SampleOffset::ZERO))
+        self.vector_at(x, y, frame, SampleOffset::ZERO)
     }
 
     /// The first two components at `(x, y, frame)` (see [`sample_vector`](Self::sample_vector)).
     #[must_use]
     #[inline]
     pub fn sample_vec2(&self, x: i32, y: i32, frame: u32) -> Vec2 {
-        self.sample_vec4(x, y, frame).truncate().truncate()
+        self.vector_at(x, y, frame, SampleOffset::ZERO)
     }
 
     /// The first three components at `(x, y, frame)`: a unit vector for direction masks.
     #[must_use]
     #[inline]
     pub fn sample_vec3(&self, x: i32, y: i32, frame: u32) -> Vec3 {
-        self.sample_vec4(x, y, frame).truncate()
+        self.vector_at(x, y, frame, SampleOffset::ZERO)
     }
 
     /// All four components at `(x, y, frame)` (the value of
@@ -101,7 +382,7 @@ impl Stbn<'_> {
     #[must_use]
     #[inline]
     pub fn sample_vec4(&self, x: i32, y: i32, frame: u32) -> Vec4 {
-        self.vector_value(self.voxel(x, y, frame, SampleOffset::ZERO))
+        self.vector_at(x, y, frame, SampleOffset::ZERO)
     }
 
     /// The pdf of the value at `(x, y, frame)` (see [`VectorSample::pdf`]).
@@ -111,47 +392,217 @@ impl Stbn<'_> {
         self.sample_vector(x, y, frame).pdf
     }
 
-    /// The value at `voxel` (a channel-0 element index) with its pdf.
-    #[inline]
-    fn vector_at(&self, voxel: usize) -> VectorSample {
-        let value = self.vector_value(voxel);
-        VectorSample {
-            value,
-            pdf: self.vector_pdf(voxel, value),
-        }
+    /// Fills `out[i]` with the vector at `(x0 + i, y, frame)` for every `i`: exactly what
+    /// [`sample_vec2`](Self::sample_vec2) / [`sample_vec3`](Self::sample_vec3) /
+    /// [`sample_vec4`](Self::sample_vec4) / [`sample_vector`](Self::sample_vector) return
+    /// there, for an `out` of [`Vec2`] / [`Vec3`] / [`Vec4`] / [`VectorSample`]. The x sum
+    /// wraps exactly, so `out` may be longer than the width (the row repeats).
+    ///
+    /// Decodes runs of contiguous voxels in blocks, several times faster than a call per
+    /// voxel.
+    pub fn fill_vector_row<V: VectorOutput>(&self, x0: i32, y: i32, frame: u32, out: &mut [V]) {
+        self.fill_vector_row_at(x0, y, frame, SampleOffset::ZERO, out);
     }
 
-    /// The value stored at `voxel` (a channel-0 element index), mapped by the mask's
-    /// [`ValueMap`] and normalised for unit-vector spaces.
-    #[inline]
-    fn vector_value(&self, voxel: usize) -> Vec4 {
-        let header = self.header();
-        let map = header.value_map;
-        let mut raw = [0.0f32; 4];
-        for (c, r) in raw
-            .iter_mut()
-            .enumerate()
-            .take(usize::from(header.value_channels()))
-        {
-            *r = map.apply(self.element(voxel + c));
-        }
-        match map {
-            ValueMap::Octahedral => octahedral_decode(Vec2::new(raw[0], raw[1])).extend(0.0),
-            _ if header.space.is_unit() => normalise_or_keep(Vec4::from_array(raw)),
-            _ => Vec4::from_array(raw),
-        }
+    /// Fills `out` with the vectors of frame `frame` (wrapped modulo depth) in row-major order,
+    /// `out[y * width + x]` the vector at `(x, y, frame)` as
+    /// [`fill_vector_row`](Self::fill_vector_row) writes it.
+    ///
+    /// Writes `min(out.len(), width * height)` values and returns that count, like
+    /// [`fill_frame`](Self::fill_frame).
+    pub fn fill_vector_frame<V: VectorOutput>(&self, frame: u32, out: &mut [V]) -> usize {
+        self.fill_vector_frame_at(frame, SampleOffset::ZERO, out)
     }
 
-    /// The pdf of `value`, the value at `voxel`: the stored channel or the space's density.
-    #[inline]
-    fn vector_pdf(&self, voxel: usize, value: Vec4) -> f32 {
-        let header = self.header();
-        if header.space.stores_pdf() {
-            let t = self.element_full_range(voxel + usize::from(header.channels) - 1);
-            // t in [0, 1], so the result lies in [pdf_min, pdf_max] (both finite, >= 0).
-            (header.pdf_min + t * (header.pdf_max - header.pdf_min)).max(0.0)
+    /// The vector at `(x + o.x, y + o.y, frame + o.frame)` as `V`: the one out-of-line call
+    /// behind every per-sample vector method.
+    // Not `#[inline]`: it holds the dispatch on the mask's layout, which would swell a caller's
+    // pixel loop (and measured slower there).
+    #[inline(never)]
+    pub(crate) fn vector_at<V: VectorOutput>(
+        &self,
+        x: i32,
+        y: i32,
+        frame: u32,
+        o: SampleOffset,
+    ) -> V {
+        let voxel = self.voxel(x, y, frame, o);
+        self.plan.dispatch(VoxelVisitor {
+            mask: self,
+            voxel,
+            output: PhantomData,
+        })
+    }
+
+    /// [`fill_vector_row`](Self::fill_vector_row) at `(x0 + o.x, y + o.y, frame + o.frame)`.
+    pub(crate) fn fill_vector_row_at<V: VectorOutput>(
+        &self,
+        x0: i32,
+        y: i32,
+        frame: u32,
+        o: SampleOffset,
+        out: &mut [V],
+    ) {
+        self.row_runs(x0, y, frame, o, out, |first, run| {
+            self.plan.dispatch(RunVisitor {
+                mask: self,
+                first,
+                out: run,
+            });
+        });
+    }
+
+    /// [`fill_vector_frame`](Self::fill_vector_frame) at offset `o`, which must be wrapped (as
+    /// [`add_offsets`](Self::add_offsets) returns it).
+    pub(crate) fn fill_vector_frame_at<V: VectorOutput>(
+        &self,
+        frame: u32,
+        o: SampleOffset,
+        out: &mut [V],
+    ) -> usize {
+        self.frame_runs(frame, o, out, |first, run| {
+            self.plan.dispatch(RunVisitor {
+                mask: self,
+                first,
+                out: run,
+            });
+        })
+    }
+
+    /// The output for `value`, the value of the voxel whose `S` elements start at element
+    /// `voxel`.
+    #[inline(always)]
+    fn vector_output<V: VectorOutput, const S: usize>(&self, value: [f32; 4], voxel: usize) -> V {
+        let pdf = if V::NEEDS_PDF {
+            self.vector_pdf::<S>(voxel, value)
         } else {
-            derived_pdf(header.space, header.value_map, header.dims(), value)
+            0.0
+        };
+        V::from_value(value, pdf)
+    }
+
+    /// The pdf of `value`, the value of the voxel whose `S` elements start at `voxel`.
+    #[inline(always)]
+    fn vector_pdf<const S: usize>(&self, voxel: usize, value: [f32; 4]) -> f32 {
+        match self.plan.pdf {
+            Pdf::Constant(pdf) => pdf,
+            Pdf::Cosine => value[2].max(0.0) / PI,
+            Pdf::Stored => {
+                let header = self.header();
+                let t = self.element_full_range(voxel + S - 1);
+                // t in [0, 1], so the result lies in [pdf_min, pdf_max] (both finite, >= 0).
+                (header.pdf_min + t * (header.pdf_max - header.pdf_min)).max(0.0)
+            }
+        }
+    }
+}
+
+/// Decodes the single voxel whose channel-0 element index is `voxel`.
+struct VoxelVisitor<'s, 'a, V> {
+    mask: &'s Stbn<'a>,
+    voxel: usize,
+    output: PhantomData<fn() -> V>,
+}
+
+impl<V: VectorOutput> PlanVisitor for VoxelVisitor<'_, '_, V> {
+    type Out = V;
+    #[inline(always)]
+    fn visit<T: ValueTransform, const C: usize, const S: usize>(self, plan: &VectorPlan) -> V {
+        let data = self.mask.data();
+        let i = self.voxel;
+        let mut u = [0.0; 4];
+        // The voxel's elements are in bounds (see `voxel`). Matching the encoding here makes
+        // each slice a constant length: one bounds check, then straight-line code.
+        let encoding = self.mask.encoding();
+        let bytes = match encoding {
+            Encoding::Unorm8 => &data[i..i + C],
+            Encoding::Unorm16 => &data[2 * i..2 * (i + C)],
+            Encoding::F32 => &data[4 * i..4 * (i + C)],
+        };
+        decode_elements(encoding, bytes, &mut u[..C]);
+        let value = voxel_value::<T, C>(u, plan);
+        self.mask.vector_output::<V, S>(value, i)
+    }
+}
+
+/// Decodes a run of contiguous voxels, the first with channel-0 element index `first`, into
+/// `out`, block by block in separate passes: one vectorised element conversion, then the
+/// steps of [`voxel_value`] each over the whole block (short dependency chains, so that many
+/// voxels are in flight), then the outputs.
+struct RunVisitor<'s, 'a, 'o, V> {
+    mask: &'s Stbn<'a>,
+    first: usize,
+    out: &'o mut [V],
+}
+
+impl<V: VectorOutput> PlanVisitor for RunVisitor<'_, '_, '_, V> {
+    type Out = ();
+    #[inline(always)]
+    fn visit<T: ValueTransform, const C: usize, const S: usize>(self, plan: &VectorPlan) {
+        let mask = self.mask;
+        let encoding = mask.encoding();
+        let bpe = encoding.bytes_per_element();
+        let mut elements = [0.0f32; 4 * FILL_BLOCK];
+        // The block's values, one array per component, and their unit scales.
+        let mut xs = [0.0f32; FILL_BLOCK];
+        let mut ys = [0.0f32; FILL_BLOCK];
+        let mut zs = [0.0f32; FILL_BLOCK];
+        let mut ws = [0.0f32; FILL_BLOCK];
+        let mut scales = [1.0f32; FILL_BLOCK];
+        for (k, block) in self.out.chunks_mut(FILL_BLOCK).enumerate() {
+            let first = self.first + k * FILL_BLOCK * S;
+            let elements = &mut elements[..block.len() * S];
+            let len = elements.len();
+            decode_elements(
+                encoding,
+                &mask.data()[first * bpe..(first + len) * bpe],
+                elements,
+            );
+            if !T::UNIT {
+                // Nothing to scale: one pass.
+                for (i, (o, e)) in block.iter_mut().zip(elements.chunks_exact(S)).enumerate() {
+                    let mut u = [0.0; 4];
+                    u[..C].copy_from_slice(&e[..C]);
+                    let value = T::value::<C>(u, plan);
+                    *o = mask.vector_output::<V, S>(value, first + i * S);
+                }
+                continue;
+            }
+            for ((((e, x), y), z), w) in elements
+                .chunks_exact(S)
+                .zip(&mut xs)
+                .zip(&mut ys)
+                .zip(&mut zs)
+                .zip(&mut ws)
+            {
+                let mut u = [0.0; 4];
+                u[..C].copy_from_slice(&e[..C]);
+                [*x, *y, *z, *w] = T::value::<C>(u, plan);
+            }
+            for ((((scale, x), y), z), w) in scales[..block.len()]
+                .iter_mut()
+                .zip(&xs)
+                .zip(&ys)
+                .zip(&zs)
+                .zip(&ws)
+            {
+                *scale = squared_length([*x, *y, *z, *w]);
+            }
+            for scale in &mut scales[..block.len()] {
+                *scale = scale_of_squared_length(*scale);
+            }
+            for (i, (((((o, x), y), z), w), scale)) in block
+                .iter_mut()
+                .zip(&xs)
+                .zip(&ys)
+                .zip(&zs)
+                .zip(&ws)
+                .zip(&scales)
+                .enumerate()
+            {
+                let value = [*x, *y, *z, *w].map(|c| c * scale);
+                *o = mask.vector_output::<V, S>(value, first + i * S);
+            }
         }
     }
 }
@@ -159,31 +610,30 @@ impl Stbn<'_> {
 impl OffsetStbn<'_> {
     /// [`Stbn::sample_vector`] at the offset position: the vector and its pdf.
     #[must_use]
+    #[inline]
     pub fn sample_vector(&self, x: i32, y: i32, frame: u32) -> VectorSample {
-        self.mask
-            .vector_at(self.mask.voxel(x, y, frame, self.offset))
+        self.mask.vector_at(x, y, frame, self.offset)
     }
 
     /// [`Stbn::sample_vec2`] at the offset position: the first two components.
     #[must_use]
     #[inline]
     pub fn sample_vec2(&self, x: i32, y: i32, frame: u32) -> Vec2 {
-        self.sample_vec4(x, y, frame).truncate().truncate()
+        self.mask.vector_at(x, y, frame, self.offset)
     }
 
     /// [`Stbn::sample_vec3`] at the offset position: the first three components.
     #[must_use]
     #[inline]
     pub fn sample_vec3(&self, x: i32, y: i32, frame: u32) -> Vec3 {
-        self.sample_vec4(x, y, frame).truncate()
+        self.mask.vector_at(x, y, frame, self.offset)
     }
 
     /// [`Stbn::sample_vec4`] at the offset position: all four components.
     #[must_use]
     #[inline]
     pub fn sample_vec4(&self, x: i32, y: i32, frame: u32) -> Vec4 {
-        self.mask
-            .vector_value(self.mask.voxel(x, y, frame, self.offset))
+        self.mask.vector_at(x, y, frame, self.offset)
     }
 
     /// [`Stbn::sample_pdf`] at the offset position (see [`VectorSample::pdf`]).
@@ -192,36 +642,45 @@ impl OffsetStbn<'_> {
     pub fn sample_pdf(&self, x: i32, y: i32, frame: u32) -> f32 {
         self.sample_vector(x, y, frame).pdf
     }
-}
 
-/// `v / |v|`, or `v` unchanged if it is zero (a quantised `±1` or circle value never is; the
-/// guard keeps hand-made blobs from producing NaN).
-fn normalise_or_keep(v: Vec4) -> Vec4 {
-    if v.length_squared() > 0.0 {
-        v.normalize()
-    } else {
-        v
+    /// [`Stbn::fill_vector_row`] at the offset position: `out[i]` is the vector at
+    /// `(x0 + i, y, frame)` of this view.
+    pub fn fill_vector_row<V: VectorOutput>(&self, x0: i32, y: i32, frame: u32, out: &mut [V]) {
+        self.mask.fill_vector_row_at(x0, y, frame, self.offset, out);
+    }
+
+    /// [`Stbn::fill_vector_frame`] at the offset position: `out[y * width + x]` is the vector at
+    /// `(x, y, frame)` of this view; writes `min(out.len(), width * height)` values and returns
+    /// that count.
+    pub fn fill_vector_frame<V: VectorOutput>(&self, frame: u32, out: &mut [V]) -> usize {
+        self.mask
+            .fill_vector_frame_at(frame, self.sample_offset(), out)
     }
 }
 
-/// The pdf of spaces that do not store one, at `value` (already mapped and normalised).
-fn derived_pdf(space: Space, map: ValueMap, dims: u8, value: Vec4) -> f32 {
-    match space {
-        Space::Scalar => 1.0,
-        Space::Vec => match map {
-            // Uniform on [-1, 1]^n: density 2^-n.
-            ValueMap::Signed => 1.0 / f32::from(1u8 << dims.min(4)),
-            _ => 1.0,
-        },
-        Space::UnitVec => match dims {
-            1 => 0.5,
-            2 => 1.0 / (2.0 * PI),
-            _ => 1.0 / (4.0 * PI),
-        },
-        Space::UniformHemisphere => 1.0 / (2.0 * PI),
-        Space::CosineHemisphere => value.z.max(0.0) / PI,
-        // Parsing guarantees these store their pdf; keep the function total anyway.
-        Space::ImagePoints | Space::EnvironmentDirections => 0.0,
+impl Pdf {
+    /// How the pdf of a validated header's values is found: stored for image spaces, derived
+    /// from the space otherwise (see [`Space`]).
+    const fn new(header: &MaskHeader) -> Self {
+        match header.space {
+            Space::Scalar => Pdf::Constant(1.0),
+            Space::Vec => match header.value_map {
+                // Uniform on [-1, 1]^n: density 2^-n.
+                ValueMap::Signed => {
+                    let dims = if header.dims() < 4 { header.dims() } else { 4 };
+                    Pdf::Constant(1.0 / (1u8 << dims) as f32)
+                }
+                _ => Pdf::Constant(1.0),
+            },
+            Space::UnitVec => Pdf::Constant(match header.dims() {
+                1 => 0.5,
+                2 => 1.0 / (2.0 * PI),
+                _ => 1.0 / (4.0 * PI),
+            }),
+            Space::UniformHemisphere => Pdf::Constant(1.0 / (2.0 * PI)),
+            Space::CosineHemisphere => Pdf::Cosine,
+            Space::ImagePoints | Space::EnvironmentDirections => Pdf::Stored,
+        }
     }
 }
 
@@ -246,6 +705,21 @@ mod tests {
                 assert!((back - n).length() < 1e-5, "{n} -> {e} -> {back}");
             }
         }
+    }
+
+    #[test]
+    fn inverse_sqrt_is_within_one_ulp_over_the_normalised_range() {
+        // Every squared length a Unorm or F32 unit-vector mask can produce lies in [2^-48, 4]
+        // (or is 0, which the normalisation skips); f32 patterns in that range, in steps.
+        let (lo, hi) = ((-48.0f32).exp2().to_bits(), 4.0f32.to_bits());
+        let mut worst = 0.0f64;
+        for bits in (lo..=hi).step_by(1021).chain([hi]) {
+            let d = f32::from_bits(bits);
+            let exact = 1.0 / f64::from(d).sqrt();
+            worst = worst.max((f64::from(inverse_sqrt(d)) - exact).abs() / exact);
+        }
+        assert!(worst < 1.2e-7, "{worst}");
+        assert_eq!(0.0 * inverse_sqrt(0.0), 0.0);
     }
 
     #[test]

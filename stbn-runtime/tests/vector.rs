@@ -276,3 +276,280 @@ fn offset_views_read_vectors_at_the_shifted_position() {
         }
     }
 }
+
+/// Every vector layout a header may declare, as (space, value map, channels, pdf range).
+const LAYOUTS: [(Space, ValueMap, u8, f32, f32); 20] = [
+    (Space::Scalar, ValueMap::Unit, 1, 0.0, 0.0),
+    (Space::Scalar, ValueMap::Unit, 2, 0.0, 0.0),
+    (Space::Scalar, ValueMap::Unit, 3, 0.0, 0.0),
+    (Space::Scalar, ValueMap::Unit, 4, 0.0, 0.0),
+    (Space::Vec, ValueMap::Unit, 1, 0.0, 0.0),
+    (Space::Vec, ValueMap::Unit, 2, 0.0, 0.0),
+    (Space::Vec, ValueMap::Signed, 3, 0.0, 0.0),
+    (Space::Vec, ValueMap::Signed, 4, 0.0, 0.0),
+    (Space::UnitVec, ValueMap::Signed, 1, 0.0, 0.0),
+    (Space::UnitVec, ValueMap::Signed, 2, 0.0, 0.0),
+    (Space::UnitVec, ValueMap::Signed, 3, 0.0, 0.0),
+    (Space::UnitVec, ValueMap::Octahedral, 2, 0.0, 0.0),
+    (Space::UniformHemisphere, ValueMap::Signed, 3, 0.0, 0.0),
+    (Space::UniformHemisphere, ValueMap::Octahedral, 2, 0.0, 0.0),
+    (Space::CosineHemisphere, ValueMap::Signed, 3, 0.0, 0.0),
+    (Space::CosineHemisphere, ValueMap::Octahedral, 2, 0.0, 0.0),
+    (Space::ImagePoints, ValueMap::Unit, 3, 0.25, 8.0),
+    (Space::Scalar, ValueMap::Signed, 2, 0.0, 0.0),
+    (Space::EnvironmentDirections, ValueMap::Signed, 4, 0.5, 3.0),
+    (
+        Space::EnvironmentDirections,
+        ValueMap::Octahedral,
+        3,
+        0.0,
+        1.5,
+    ),
+];
+
+/// Small masks of every layout, encoding and a power-of-two and an odd shape, with random
+/// payloads (F32 elements in `[0, 1)`).
+fn layout_masks() -> Vec<(MaskHeader, Vec<u8>)> {
+    let mut rng = Rng(77);
+    let mut out = Vec::new();
+    for (w, h, d) in [(4, 4, 2), (3, 5, 3)] {
+        for (space, map, channels, pdf_min, pdf_max) in LAYOUTS {
+            for encoding in [Encoding::Unorm8, Encoding::Unorm16, Encoding::F32] {
+                let header = MaskHeader::new(w, h, d, channels, encoding)
+                    .with_space(space, map, pdf_min, pdf_max);
+                let payload = common::random_payload(&header, &mut rng);
+                let bytes = blob(header, &payload);
+                out.push((header, bytes));
+            }
+        }
+    }
+    out
+}
+
+fn bits4(v: Vec4) -> [u32; 4] {
+    v.to_array().map(f32::to_bits)
+}
+
+/// The bits of one output, as compared between a fill and the per-sample reads.
+trait Bits: Copy + stbn_runtime::VectorOutput {
+    fn zero() -> Self;
+    fn bits(self) -> [u32; 5];
+    fn read(view: &stbn_runtime::OffsetStbn<'_>, x: i32, y: i32, frame: u32) -> Self;
+}
+
+impl Bits for Vec2 {
+    fn zero() -> Self {
+        Vec2::splat(-7.0)
+    }
+    fn bits(self) -> [u32; 5] {
+        bits5(self.extend(0.0).extend(0.0), 0.0)
+    }
+    fn read(view: &stbn_runtime::OffsetStbn<'_>, x: i32, y: i32, frame: u32) -> Self {
+        view.sample_vec2(x, y, frame)
+    }
+}
+
+impl Bits for Vec3 {
+    fn zero() -> Self {
+        Vec3::splat(-7.0)
+    }
+    fn bits(self) -> [u32; 5] {
+        bits5(self.extend(0.0), 0.0)
+    }
+    fn read(view: &stbn_runtime::OffsetStbn<'_>, x: i32, y: i32, frame: u32) -> Self {
+        view.sample_vec3(x, y, frame)
+    }
+}
+
+impl Bits for Vec4 {
+    fn zero() -> Self {
+        Vec4::splat(-7.0)
+    }
+    fn bits(self) -> [u32; 5] {
+        bits5(self, 0.0)
+    }
+    fn read(view: &stbn_runtime::OffsetStbn<'_>, x: i32, y: i32, frame: u32) -> Self {
+        view.sample_vec4(x, y, frame)
+    }
+}
+
+impl Bits for stbn_runtime::VectorSample {
+    fn zero() -> Self {
+        stbn_runtime::VectorSample {
+            value: Vec4::splat(-7.0),
+            pdf: -7.0,
+        }
+    }
+    fn bits(self) -> [u32; 5] {
+        bits5(self.value, self.pdf)
+    }
+    fn read(view: &stbn_runtime::OffsetStbn<'_>, x: i32, y: i32, frame: u32) -> Self {
+        view.sample_vector(x, y, frame)
+    }
+}
+
+fn bits5(v: Vec4, pdf: f32) -> [u32; 5] {
+    let [a, b, c, d] = bits4(v);
+    [a, b, c, d, pdf.to_bits()]
+}
+
+/// Checks `fill_vector_row` and `fill_vector_frame` of `view` against its per-sample reads of
+/// `T`, and those against the mask's reads at the wrapped shifted position, bit for bit.
+fn check_fills<T: Bits>(stbn: &Stbn<'_>, view: stbn_runtime::OffsetStbn<'_>, what: &str) -> u64 {
+    let (w, h, d) = (stbn.width(), stbn.height(), stbn.depth());
+    let o = view.sample_offset();
+    let wrapped = |x: i64, y: i64, f: u64| {
+        (
+            (x + i64::from(o.x)).rem_euclid(w.into()) as i32,
+            (y + i64::from(o.y)).rem_euclid(h.into()) as i32,
+            ((f + u64::from(o.frame)) % u64::from(d)) as u32,
+        )
+    };
+    let base = stbn_runtime::OffsetStbn::from(stbn);
+    let mut checked = 0;
+    let rows = [
+        (0, 0),
+        (-1, -1),
+        (i32::MIN, i32::MAX),
+        (i32::MAX, i32::MIN),
+        (7, -12_345),
+    ];
+    let lens = [0, 1, w as usize, 3 * w as usize + 2];
+    for frame in [0, 1, d + 2, u32::MAX] {
+        for (x0, y) in rows {
+            for len in lens {
+                let mut out = vec![T::zero(); len];
+                view.fill_vector_row(x0, y, frame, &mut out);
+                for (i, v) in out.iter().enumerate() {
+                    let (sx, sy, sf) = wrapped(i64::from(x0) + i as i64, y.into(), frame.into());
+                    let expected = T::read(&base, sx, sy, sf);
+                    assert_eq!(
+                        v.bits(),
+                        expected.bits(),
+                        "{what} row ({x0},{y},{frame}) i {i}"
+                    );
+                    if let Ok(x) = i32::try_from(i64::from(x0) + i as i64) {
+                        assert_eq!(v.bits(), T::read(&view, x, y, frame).bits(), "{what}");
+                    }
+                    checked += 1;
+                }
+            }
+        }
+        let area = (w * h) as usize;
+        for len in [0, 1, area - 1, area, area + 5] {
+            let mut out = vec![T::zero(); len];
+            assert_eq!(view.fill_vector_frame(frame, &mut out), len.min(area));
+            for (i, v) in out.iter().enumerate() {
+                if i < area {
+                    let (x, y) = (i % w as usize, i / w as usize);
+                    let (sx, sy, sf) = wrapped(x as i64, y as i64, frame.into());
+                    let expected = T::read(&base, sx, sy, sf);
+                    assert_eq!(v.bits(), expected.bits(), "{what} frame {frame} i {i}");
+                    checked += 1;
+                } else {
+                    assert_eq!(v.bits(), T::zero().bits(), "tail must be untouched");
+                }
+            }
+        }
+    }
+    checked
+}
+
+#[test]
+fn vector_fills_match_per_sample_reads_bit_for_bit() {
+    let mut checked = 0;
+    for (header, bytes) in layout_masks() {
+        let stbn = Stbn::from_bytes(&bytes).unwrap();
+        let offsets = [
+            SampleOffset::ZERO,
+            SampleOffset {
+                x: 0,
+                y: 0,
+                frame: u32::MAX,
+            },
+            SampleOffset {
+                x: i32::MIN,
+                y: i32::MAX,
+                frame: 7,
+            },
+            stbn.dimension(5).sample_offset(),
+        ];
+        for offset in offsets {
+            let view = stbn.offset(offset);
+            let what = format!("{header:?} {offset:?}");
+            checked += check_fills::<Vec2>(&stbn, view, &what);
+            checked += check_fills::<Vec3>(&stbn, view, &what);
+            checked += check_fills::<Vec4>(&stbn, view, &what);
+            checked += check_fills::<stbn_runtime::VectorSample>(&stbn, view, &what);
+        }
+        // The mask's own fills are its view at offset zero.
+        let mut row = vec![Vec4::ZERO; 2 * header.width as usize + 1];
+        let mut via_view = row.clone();
+        stbn.fill_vector_row(-3, 9, 4, &mut row);
+        stbn.offset(SampleOffset::ZERO)
+            .fill_vector_row(-3, 9, 4, &mut via_view);
+        assert_eq!(row, via_view);
+        let mut frame = vec![stbn_runtime::VectorSample::zero(); 64];
+        let mut via_view = frame.clone();
+        assert_eq!(
+            stbn.fill_vector_frame(u32::MAX, &mut frame),
+            stbn.offset(SampleOffset::ZERO)
+                .fill_vector_frame(u32::MAX, &mut via_view)
+        );
+        assert_eq!(frame, via_view);
+    }
+    assert!(checked > 1_000_000, "{checked}");
+}
+
+#[test]
+fn vector_reads_decode_every_layout_as_documented() {
+    for (header, bytes) in layout_masks() {
+        let stbn = Stbn::from_bytes(&bytes).unwrap();
+        let data = &bytes[64..];
+        let c = usize::from(header.channels);
+        let unit = |i: usize| match header.encoding {
+            Encoding::Unorm8 => (f32::from(data[i]) + 0.5) / 256.0,
+            Encoding::Unorm16 => {
+                (f32::from(u16::from_le_bytes([data[2 * i], data[2 * i + 1]])) + 0.5) / 65536.0
+            }
+            Encoding::F32 => f32::from_le_bytes(data[4 * i..4 * i + 4].try_into().unwrap()),
+        };
+        let voxels = (header.width * header.height * header.depth) as usize;
+        for v in 0..voxels {
+            let (x, y, z) = (
+                v % header.width as usize,
+                v / header.width as usize % header.height as usize,
+                v / (header.width * header.height) as usize,
+            );
+            let s = stbn.sample_vector(x as i32, y as i32, z as u32);
+            let dims = usize::from(header.value_channels());
+            let mapped: Vec<f32> = (0..dims)
+                .map(|k| header.value_map.apply(unit(v * c + k)))
+                .collect();
+            let what = format!("{header:?} voxel {v}");
+            match header.value_map {
+                ValueMap::Octahedral => {
+                    let n = octahedral_decode(Vec2::new(mapped[0], mapped[1]));
+                    // The samplers share the public decode, bit for bit.
+                    assert_eq!(bits4(s.value), bits4(n.extend(0.0)), "{what}");
+                }
+                _ if header.space.is_unit() => {
+                    let len = mapped.iter().map(|m| m * m).sum::<f32>().sqrt();
+                    for (k, m) in mapped.iter().enumerate() {
+                        assert!((s.value[k] - m / len).abs() < 1e-6, "{what}");
+                    }
+                    assert!((s.value.length() - 1.0).abs() < 1e-6, "{what}");
+                }
+                _ => {
+                    for (k, m) in mapped.iter().enumerate() {
+                        assert_eq!(s.value[k].to_bits(), m.to_bits(), "{what}");
+                    }
+                }
+            }
+            for k in stbn.dims()..4 {
+                assert_eq!(s.value[usize::from(k)].to_bits(), 0, "{what}");
+            }
+            assert!(s.pdf.is_finite() && s.pdf >= 0.0, "{what}");
+        }
+    }
+}
