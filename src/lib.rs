@@ -42,3 +42,9 @@
 pub mod masks {
     include!(concat!(env!("OUT_DIR"), "/stbn_assets.rs"));
 }
+
+/// The README's Rust snippets, compiled (and run where they can) as doctests of this crate, whose
+/// `assets.ron` declares the masks they name.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeSnippets;
