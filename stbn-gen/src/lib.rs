@@ -19,9 +19,9 @@
 //!
 //! Four modules hold what is not a generator: [`analysis`] (spectral, histogram, filtered-error
 //! and convergence measures of scalar fields), [`baselines`] (value-field baselines and the
-//! comparison set the reports measure), [`export`] (grayscale PNG slices) and [`file`](mod@file) (bounded
-//! reads of regular files). Encoding, compression and embedding live in `stbn-build-support`;
-//! sampling in `stbn-runtime`.
+//! comparison set the reports measure), [`export`] (grayscale PNG slices) and
+//! [`file`](mod@file) (bounded reads of regular files). Encoding, compression and embedding live
+//! in `stbn-build-support`; sampling in `stbn-runtime`.
 //!
 //! # Features
 //!

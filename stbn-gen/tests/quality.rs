@@ -211,8 +211,8 @@ fn stbn_128_meets_the_quality_targets() {
         ("Tellusim layered", &kind(BaselineKind::TellusimLayered)),
         ("STBN", &stbn(EnergyTopology::Spatiotemporal)),
     ];
-    // Each field is generated and measured on its own thread (the measures are deterministic);
-    // the report is printed in the fields' order.
+    // The fields are generated and measured in parallel on rayon's pool (each result is
+    // deterministic); the report is printed in the fields' order.
     let measured: Vec<(f64, [f64; 2], String)> = fields
         .par_iter()
         .map(|(name, make)| {
