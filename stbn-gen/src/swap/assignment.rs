@@ -4,11 +4,9 @@
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 
-use super::energy::{
-    FACTOR_LANES, SwapKernel, lane_sum, squared_distance, value_factor, value_factors,
-};
+use super::energy::{FACTOR_LANES, SwapKernel, lane_sum, squared_distance, value_factors};
 use super::pair::Scratch;
-use super::region::{Region, region_indices, value_at};
+use super::region::{Region, region_indices};
 use super::{PassPlan, TileResult};
 use crate::schedule::Tile;
 
@@ -29,54 +27,33 @@ const ASSIGNMENT_SHORTLIST: usize = 256;
 /// Values nearest the anchor's sorted before the rest of the shortlist (most sets fill from them).
 const ASSIGNMENT_FIRST_LOOK: usize = 32;
 
-/// The working arrays of [`min_cost_assignment`], kept between calls so a move allocates
-/// nothing.
-#[derive(Default)]
-struct Hungarian {
-    u: Vec<f64>,
-    v: Vec<f64>,
-    p: Vec<usize>,
-    way: Vec<usize>,
-    minv: Vec<f64>,
-    used: Vec<bool>,
-}
+/// Rows and columns of [`min_cost_assignment`]'s arrays: index 0 is the method's dummy.
+const HUNGARIAN_LEN: usize = MAX_ASSIGNMENT as usize + 1;
 
 /// The permutation `out` (row `i` gets column `out[i]`) of least total `cost` (`k × k`, row
-/// major): the Hungarian method with potentials, O(k³). Deterministic.
-fn min_cost_assignment(cost: &[f64], k: usize, out: &mut [usize], work: &mut Hungarian) {
+/// major, `k ≤` [`MAX_ASSIGNMENT`]): the Hungarian method with potentials, O(k³).
+/// Deterministic. Its arrays live on the stack, at the largest size.
+fn min_cost_assignment(cost: &[f64], k: usize, out: &mut [usize]) {
+    assert!(k < HUNGARIAN_LEN && cost.len() == k * k && out.len() == k);
     let inf = f64::INFINITY;
-    let Hungarian {
-        u,
-        v,
-        p,
-        way,
-        minv,
-        used,
-    } = work;
-    for buffer in [&mut *u, &mut *v] {
-        buffer.clear();
-        buffer.resize(k + 1, 0.0);
-    }
-    for buffer in [&mut *p, &mut *way] {
-        buffer.clear();
-        buffer.resize(k + 1, 0);
-    }
-    minv.resize(k + 1, inf);
-    used.resize(k + 1, false);
-    let (minv, used) = (&mut minv[..k + 1], &mut used[..k + 1]);
+    let mut u = [0.0f64; HUNGARIAN_LEN];
+    let mut v = [0.0f64; HUNGARIAN_LEN];
+    let mut p = [0usize; HUNGARIAN_LEN];
+    let mut way = [0usize; HUNGARIAN_LEN];
     for i in 1..=k {
         p[0] = i;
         let mut j0 = 0;
-        minv.fill(inf);
-        used.fill(false);
+        let mut minv = [inf; HUNGARIAN_LEN];
+        let mut used = [false; HUNGARIAN_LEN];
         loop {
             used[j0] = true;
             let i0 = p[j0];
+            let row = &cost[(i0 - 1) * k..i0 * k];
             let mut delta = inf;
             let mut j1 = 0;
             for j in 1..=k {
                 if !used[j] {
-                    let cur = cost[(i0 - 1) * k + j - 1] - u[i0] - v[j];
+                    let cur = row[j - 1] - u[i0] - v[j];
                     if cur < minv[j] {
                         minv[j] = cur;
                         way[j] = j0;
@@ -115,31 +92,41 @@ fn min_cost_assignment(cost: &[f64], k: usize, out: &mut [usize], work: &mut Hun
 }
 
 impl SwapKernel {
-    /// `c(p, v) = Σ_n w f(‖v − Vn‖²)`, the energy pixel `p` would have holding `value`, from the
-    /// values `neighbours` of its taps (in [`SwapKernel::for_each_neighbour`]'s order).
+    /// `c(p, v_c) = Σ_n w f(‖v_c − Vn‖²)` for every value `v_c` of `values`: the energies pixel `p`
+    /// would have holding each, from the values `neighbours` of its taps (in
+    /// [`SwapKernel::for_each_neighbour`]'s order). Leaves each value's per-tap factors in
+    /// `factors` (`taps` rounded up to whole [`FACTOR_LANES`] per value, value-major), for the
+    /// update of a kept permutation, and the energies in `costs`.
     #[inline(always)]
-    fn pixel_cost<const D: usize>(
+    fn pixel_costs<const D: usize>(
         &self,
         neighbours: &[[f32; D]],
-        value: &[f32; D],
+        values: &[[f32; D]],
+        (distances, factors): (&mut [f32], &mut [f32]),
         scratch: &mut Scratch,
-    ) -> f64 {
+        costs: &mut [f64],
+    ) {
         let taps = scratch.taps;
         let padded = taps.div_ceil(FACTOR_LANES) * FACTOR_LANES;
-        for (d, n) in scratch.after[..taps].iter_mut().zip(neighbours) {
-            *d = squared_distance(value, n);
+        let entries = values.len() * padded;
+        for (row, value) in distances.chunks_exact_mut(padded).zip(values) {
+            for (d, n) in row[..taps].iter_mut().zip(neighbours) {
+                *d = squared_distance(value, n);
+            }
+            row[taps..].fill(0.0);
         }
-        scratch.after[taps..padded].fill(0.0);
         value_factors::<D>(
-            &scratch.after[..padded],
-            &mut scratch.factor[..padded],
+            &distances[..entries],
+            &mut factors[..entries],
             self.inv_sigma_value_sq,
         );
-        let entries = scratch.weight[..taps].iter().zip(&scratch.factor[..taps]);
-        for (term, (&w, &f)) in scratch.term.iter_mut().zip(entries) {
-            *term = w * f64::from(f);
+        for (cost, row) in costs.iter_mut().zip(factors.chunks_exact(padded)) {
+            let entries = scratch.weight[..taps].iter().zip(&row[..taps]);
+            for (term, (&w, &f)) in scratch.term.iter_mut().zip(entries) {
+                *term = w * f64::from(f);
+            }
+            *cost = lane_sum(&scratch.term[..taps]);
         }
-        lane_sum(&scratch.term[..taps])
     }
 
     /// One tile of an assignment pass ([`super::SwapOptimizer::run_assignment_pass`]).
@@ -162,15 +149,20 @@ impl SwapKernel {
         let in_slice = region_indices(tile);
         let slice = (tile.rw * tile.rh) as usize;
         let mut order: Vec<u32> = (0..n).collect();
-        let mut near: Vec<(u32, u32)> = Vec::with_capacity(n as usize);
+        let mut near: Vec<u64> = Vec::with_capacity(n as usize);
         let mut set: Vec<u32> = Vec::with_capacity(k_max);
         let mut cost = vec![0.0f64; k_max * k_max];
         let mut perm = vec![0usize; k_max];
-        let mut hungarian = Hungarian::default();
         let mut tile_values: Vec<[f32; D]> = Vec::with_capacity(n as usize);
         let mut neighbours = vec![[0.0f32; D]; scratch.taps];
-        // The set's values before a kept permutation.
-        let mut old: Vec<[f32; D]> = Vec::with_capacity(k_max);
+        // Per set pixel: its neighbours' indices, and each candidate value's per-tap distances
+        // and factors (`padded` per value).
+        let padded = scratch.taps.div_ceil(FACTOR_LANES) * FACTOR_LANES;
+        let mut neighbour_index = vec![0usize; k_max * scratch.taps];
+        let mut distances = vec![0.0f32; k_max * padded];
+        let mut factors = vec![0.0f32; k_max * k_max * padded];
+        let mut set_values: Vec<[f32; D]> = Vec::with_capacity(k_max);
+        let mut row_costs = vec![0.0f64; k_max];
         let shortlist = ASSIGNMENT_SHORTLIST.min(n as usize);
         let moves = (n as usize).div_ceil(k_max);
         for z in 0..self.depth {
@@ -181,28 +173,25 @@ impl SwapKernel {
             for &anchor in &order[..moves] {
                 // The shortlist: the tile's values nearest the anchor's, nearest first (ties by
                 // position in the tile), then greedily the ones that interact with none chosen.
+                // Keys are `distance bits << 32 | position`: one integer comparison orders them
+                // (distances are never negative, so their bits order as they do).
                 let target = tile_values[anchor as usize];
                 near.clear();
-                near.extend(
-                    tile_values
-                        .iter()
-                        .enumerate()
-                        .map(|(j, v)| (squared_distance(&target, v).to_bits(), j as u32)),
-                );
-                if shortlist < near.len() {
-                    near.select_nth_unstable(shortlist - 1);
-                    near.truncate(shortlist);
-                }
-                // Most sets fill from the first few nearest, so those are sorted first and the
-                // rest only when the set is still short: the same order as sorting them all.
+                near.extend(tile_values.iter().enumerate().map(|(j, v)| {
+                    u64::from(squared_distance(&target, v).to_bits()) << 32 | j as u64
+                }));
+                // Most sets fill from the first few nearest, so those are selected and sorted
+                // first, and the rest of the shortlist only when the set is still short: the
+                // same order as sorting the whole shortlist.
                 let first = ASSIGNMENT_FIRST_LOOK.min(near.len());
                 if first < near.len() {
                     near.select_nth_unstable(first - 1);
                 }
                 near[..first].sort_unstable();
                 set.clear();
-                let take = |candidates: &[(u32, u32)], set: &mut Vec<u32>| {
-                    for &(_, j) in candidates {
+                let take = |candidates: &[u64], set: &mut Vec<u32>| {
+                    for &key in candidates {
+                        let j = key as u32;
                         let pj = pixel(j);
                         if set
                             .iter()
@@ -216,30 +205,44 @@ impl SwapKernel {
                     }
                 };
                 take(&near[..first], &mut set);
-                if set.len() < k_max && first < near.len() {
-                    near[first..].sort_unstable();
-                    take(&near[first..], &mut set);
+                if set.len() < k_max && first < shortlist {
+                    let rest = &mut near[first..];
+                    let more = (shortlist - first).min(rest.len());
+                    if more < rest.len() {
+                        rest.select_nth_unstable(more - 1);
+                    }
+                    rest[..more].sort_unstable();
+                    take(&rest[..more], &mut set);
                 }
                 let k = set.len();
                 if k < 2 {
                     continue;
                 }
                 // Each pixel's neighbour values are read once and costed against every value.
+                set_values.clear();
+                set_values.extend(set.iter().map(|&j| tile_values[j as usize]));
+                let taps = scratch.taps;
                 for (r, &i) in set.iter().enumerate() {
                     let (x, y) = pixel(i);
                     let centre = base + in_slice[i as usize];
+                    let index = &mut neighbour_index[r * taps..(r + 1) * taps];
                     self.for_each_neighbour(&region.steps, (x, y, z), centre, |t, n| {
                         neighbours[t] = region.value::<D>(n);
+                        index[t] = n;
                     });
-                    for (c, &j) in set.iter().enumerate() {
-                        cost[r * k + c] = self.pixel_cost::<D>(
-                            &neighbours,
-                            &tile_values[j as usize],
-                            &mut scratch,
-                        );
-                    }
+                    self.pixel_costs::<D>(
+                        &neighbours,
+                        &set_values,
+                        (
+                            &mut distances,
+                            &mut factors[r * k * padded..(r + 1) * k * padded],
+                        ),
+                        &mut scratch,
+                        &mut row_costs[..k],
+                    );
+                    cost[r * k..(r + 1) * k].copy_from_slice(&row_costs[..k]);
                 }
-                min_cost_assignment(&cost[..k * k], k, &mut perm[..k], &mut hungarian);
+                min_cost_assignment(&cost[..k * k], k, &mut perm[..k]);
                 let before: f64 = (0..k).map(|r| cost[r * k + r]).sum();
                 let after: f64 = (0..k).map(|r| cost[r * k + perm[r]]).sum();
                 result.attempted += 1;
@@ -249,33 +252,26 @@ impl SwapKernel {
                 }
                 result.accepted += 1;
                 result.delta += delta;
-                old.clear();
-                old.extend(set.iter().map(|&i| tile_values[i as usize]));
+                // The neighbours' energies change by `w (f(to) − f(from))` per tap: both
+                // factors are in the cost matrix's rows (the set's pixels do not interact, so
+                // their neighbours keep their values).
                 for (r, &i) in set.iter().enumerate() {
                     if perm[r] == r {
                         continue;
                     }
-                    let (from, to) = (old[r], old[perm[r]]);
-                    let (x, y) = pixel(i);
+                    let row = &factors[r * k * padded..(r + 1) * k * padded];
+                    let from = &row[r * padded..r * padded + taps];
+                    let to = &row[perm[r] * padded..perm[r] * padded + taps];
+                    let index = &neighbour_index[r * taps..(r + 1) * taps];
+                    for (t, &nb) in index.iter().enumerate() {
+                        region.energy[nb] +=
+                            scratch.weight[t] * (f64::from(to[t]) - f64::from(from[t]));
+                    }
                     let centre = base + in_slice[i as usize];
-                    let inv = self.inv_sigma_value_sq;
-                    let weights = &scratch.weight;
-                    let Region {
-                        steps,
-                        values,
-                        energy,
-                    } = &mut *region;
-                    self.for_each_neighbour(steps, (x, y, z), centre, |t, nb| {
-                        let vn = value_at::<D>(values, nb);
-                        let change = weights[t]
-                            * (f64::from(value_factor::<D>(squared_distance(&to, &vn), inv))
-                                - f64::from(value_factor::<D>(squared_distance(&from, &vn), inv)));
-                        energy[nb] += change;
-                    });
-                    energy[centre] = cost[r * k + perm[r]];
+                    region.energy[centre] = cost[r * k + perm[r]];
                 }
                 for (r, &i) in set.iter().enumerate() {
-                    let to = old[perm[r]];
+                    let to = set_values[perm[r]];
                     tile_values[i as usize] = to;
                     let centre = base + in_slice[i as usize];
                     region.values[centre * D..(centre + 1) * D].copy_from_slice(&to);
@@ -322,7 +318,7 @@ mod tests {
                     })
                     .collect();
                 let mut perm = vec![0; k];
-                min_cost_assignment(&cost, k, &mut perm, &mut Hungarian::default());
+                min_cost_assignment(&cost, k, &mut perm);
                 let total = |p: &[usize]| (0..k).map(|r| cost[r * k + p[r]]).sum::<f64>();
                 let mut sorted = perm.clone();
                 sorted.sort_unstable();

