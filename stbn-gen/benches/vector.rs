@@ -10,20 +10,21 @@
 //! whole run and the low-band power of each component at the end. `STBN_VECTOR_CURVE_MAX` sets the longest budget (default 256).
 //!
 //! `STBN_VECTOR_QUALITY=WxHxD cargo bench -p stbn-gen --bench vector` instead generates Vec2 and
-//! UnitVec3 at that size once per budget of `STBN_VECTOR_QUALITY_BUDGETS` (default `16,64,1024`
-//! swaps per pixel; seed `STBN_VECTOR_SEED`, default 1) and prints, per run, the time, the energy
+//! UnitVec3 (or the spaces `STBN_VECTOR_SPACES` names, e.g. `vec2,unitvec3,cosine_hemisphere`)
+//! at that size once per budget of `STBN_VECTOR_QUALITY_BUDGETS` (default `16,64,1024`
+//! swaps per pixel, `default` for [`VectorSpec::DEFAULT_SWAPS_PER_PIXEL`]; seed `STBN_VECTOR_SEED`, default 1) and prints, per run, the time, the energy
 //! and what a renderer sees: the low-band power of component 0, FAST's filtered error with random
-//! half-space thresholds at the last frame, and for Vec2 the 2D integration errors (Monte Carlo
-//! RMSE after `depth/2` frames, EMA RMSE at the last frame) of the disc, Gaussian and diagonal
-//! step. `STBN_VECTOR_ASSIGNMENT=N` runs `N` assignment passes after each budget's swaps (default
+//! half-space thresholds at the last frame, the integration errors of the report's test functions
+//! (Monte Carlo RMSE after `depth/2` frames, EMA RMSE at the last frame), and for Vec2 the same
+//! errors of the 2D disc, Gaussian and diagonal step. `STBN_VECTOR_ASSIGNMENT=N` runs `N` assignment passes after each budget's swaps (default
 //! [`VectorSpec::DEFAULT_ASSIGNMENT_PASSES`]; 0 for swaps alone).
 
 use std::time::Instant;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use stbn_gen::analysis::{
-    ConvergenceOptions, Field, FilteredErrorOptions, Integrand2D, convergence_2d,
-    filtered_error_vector, spatial_low_band, temporal_low_band,
+    ConvergenceOptions, Field, FilteredErrorOptions, Integrand2D, TestFunction, VectorField,
+    convergence_2d, filtered_error_vector, spatial_low_band, temporal_low_band, vector_convergence,
 };
 use stbn_gen::{
     EnergyTrace, Observer, SampleSpace, VectorSpec, VectorSpecError, VectorVolume, generate_vector,
@@ -42,6 +43,38 @@ fn spaces() -> [(SampleSpace, bool); 2] {
         (SampleSpace::Vec { dims: 2 }, false),
         (SampleSpace::UnitVec3, true),
     ]
+}
+
+/// The spaces of `STBN_VECTOR_SPACES` (names as [`SampleSpace::name`] writes them, comma
+/// separated; the image spaces need an image and are left out), or [`spaces`]. The second field
+/// says whether the components are signed.
+fn quality_spaces() -> Vec<(SampleSpace, bool)> {
+    let Ok(names) = std::env::var("STBN_VECTOR_SPACES") else {
+        return spaces().to_vec();
+    };
+    let all = [
+        SampleSpace::Vec { dims: 1 },
+        SampleSpace::Vec { dims: 2 },
+        SampleSpace::Vec { dims: 3 },
+        SampleSpace::Vec { dims: 4 },
+        SampleSpace::UnitVec1,
+        SampleSpace::UnitVec2,
+        SampleSpace::UnitVec3,
+        SampleSpace::UniformHemisphere,
+        SampleSpace::CosineHemisphere,
+    ];
+    names
+        .split(',')
+        .map(|name| {
+            let space = all
+                .iter()
+                .find(|s| s.name() == name)
+                .unwrap_or_else(|| panic!("STBN_VECTOR_SPACES: unknown space {name:?}"))
+                .clone();
+            let signed = !matches!(space, SampleSpace::Vec { .. });
+            (space, signed)
+        })
+        .collect()
 }
 
 fn timing(c: &mut Criterion) {
@@ -123,14 +156,17 @@ fn quality(_: &mut Criterion) {
     let budgets: Vec<f64> = std::env::var("STBN_VECTOR_QUALITY_BUDGETS")
         .unwrap_or_else(|_| "16,64,1024".to_owned())
         .split(',')
-        .map(|s| s.parse().unwrap())
+        .map(|s| match s {
+            "default" => VectorSpec::DEFAULT_SWAPS_PER_PIXEL,
+            _ => s.parse().unwrap(),
+        })
         .collect();
     let seed: u64 = std::env::var("STBN_VECTOR_SEED").map_or(1, |s| s.parse().unwrap());
     let assignment: u32 = std::env::var("STBN_VECTOR_ASSIGNMENT")
         .map_or(VectorSpec::DEFAULT_ASSIGNMENT_PASSES, |s| {
             s.parse().unwrap()
         });
-    for (space, signed) in spaces() {
+    for (space, signed) in quality_spaces() {
         for &budget in &budgets {
             let spec = VectorSpec::new(w, h, d, seed, space.clone())
                 .with_swaps_per_pixel(budget)
@@ -152,8 +188,22 @@ fn quality(_: &mut Criterion) {
                 temporal_low_band(&fields[0]).unwrap_or(0.0),
                 filtered[d as usize - 1]
             );
+            let frames = d as usize;
+            let field = VectorField::new(&space, (w as usize, h as usize, frames), volume.values())
+                .unwrap();
+            for function in TestFunction::ALL {
+                let exact = function.expected(&space);
+                let c =
+                    vector_convergence(&field, function, exact, ConvergenceOptions::new(frames));
+                println!(
+                    "  test function {}: MC RMSE after {} frames {:.4}, EMA RMSE {:.4}",
+                    function.name(),
+                    frames / 2,
+                    c.monte_carlo[frames / 2 - 1],
+                    c.ema[frames - 1]
+                );
+            }
             if fields.len() == 2 {
-                let frames = d as usize;
                 for integrand in Integrand2D::ALL {
                     let c = convergence_2d(
                         &fields[0],

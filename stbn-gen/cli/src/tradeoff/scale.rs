@@ -1,7 +1,9 @@
 //! The scale checks: one thread against two (time and identical output), and the largest masks
 //! against their time targets, with memory.
 
-use stbn_gen::{MaskSpec, Observer, SampleSpace, VectorSpec};
+use std::sync::Arc;
+
+use stbn_gen::{FilterAdaptedSpec, ImagePdf, MaskSpec, Observer, SampleSpace, VectorSpec};
 
 use super::measure::{Timing, load_average, timed};
 use super::{Knob, Plan, Section, size_name};
@@ -21,7 +23,25 @@ fn in_pool<T: PartialEq + Send>(
     Ok(pool.install(|| timed(plan.max_runs, plan.min_total, &work)))
 }
 
-/// The scalar mask and a Vec2 mask generated in pools of 1 and 2 threads.
+/// A small luminance image for the image kinds: a bright spot on a horizontal gradient (the sky
+/// of an environment map, or a vignette of points).
+fn test_image() -> Result<Arc<ImagePdf>> {
+    let (w, h) = (64u32, 32u32);
+    let luminance = (0..w * h)
+        .map(|i| {
+            let (x, y) = (
+                f64::from(i % w) / f64::from(w),
+                f64::from(i / w) / f64::from(h),
+            );
+            let spot = (-((x - 0.3).powi(2) + (y - 0.25).powi(2)) * 60.0).exp();
+            (0.2 + 0.8 * (1.0 - y) + 20.0 * spot) as f32
+        })
+        .collect();
+    Ok(Arc::new(ImagePdf::from_luminance(w, h, luminance)?))
+}
+
+/// The scalar mask and every swap-optimised kind at its default budget, generated in pools of 1
+/// and 2 threads.
 pub fn threads(plan: &Plan) -> Result<Section> {
     let mut table = Table::new(&[
         ("mask", "mask", false),
@@ -33,30 +53,80 @@ pub fn threads(plan: &Plan) -> Result<Section> {
     ]);
     let mut findings = Vec::new();
     let mut all_identical = true;
+    let mut check = |name: String, work: &(dyn Fn() -> Result<Vec<u8>> + Sync)| -> Result<()> {
+        let (one, t1) = in_pool(plan, 1, || work().map_err(|e| e.to_string()))?;
+        let (two, t2) = in_pool(plan, 2, || work().map_err(|e| e.to_string()))?;
+        let identical = one? == two?;
+        rows(&mut table, &name, &t1, &t2, identical);
+        findings.push(verdict(&name, &t1, &t2, identical));
+        all_identical &= identical;
+        Ok(())
+    };
     let (w, h, d) = plan.threads_scalar;
     let scalar = MaskSpec::new(w, h, d, plan.seed);
-    let generate = || stbn_gen::generate(&scalar, Observer::default());
-    let (one, t1) = in_pool(plan, 1, generate)?;
-    let (two, t2) = in_pool(plan, 2, generate)?;
-    let name = format!("scalar {}", size_name(plan.threads_scalar));
-    rows(&mut table, &name, &t1, &t2, one == two);
-    findings.push(verdict(&name, &t1, &t2, one == two));
-    all_identical &= one == two;
+    check(
+        format!("scalar {}", size_name(plan.threads_scalar)),
+        &|| {
+            let volume = stbn_gen::generate(&scalar, Observer::default())?;
+            Ok(volume
+                .ranks()
+                .iter()
+                .flat_map(|r| r.to_le_bytes())
+                .collect())
+        },
+    )?;
+    let image = test_image()?;
     let (w, h, d) = plan.vector_size;
-    let vector = VectorSpec::new(w, h, d, plan.seed, SampleSpace::Vec { dims: 2 })
-        .with_swaps_per_pixel(plan.vector_budget);
-    let generate = || stbn_gen::generate_vector(&vector, Observer::default());
-    let (one, t1) = in_pool(plan, 1, generate)?;
-    let (two, t2) = in_pool(plan, 2, generate)?;
-    let name = format!(
-        "Vec2 {}, {} swaps per pixel and {} assignment passes",
-        size_name(plan.vector_size),
-        vector.swaps_per_pixel,
-        vector.assignment_passes
-    );
-    rows(&mut table, &name, &t1, &t2, one == two);
-    findings.push(verdict(&name, &t1, &t2, one == two));
-    all_identical &= one == two;
+    let spaces = [
+        SampleSpace::Vec { dims: 1 },
+        SampleSpace::Vec { dims: 2 },
+        SampleSpace::Vec { dims: 3 },
+        SampleSpace::Vec { dims: 4 },
+        SampleSpace::UnitVec2,
+        SampleSpace::UnitVec3,
+        SampleSpace::UniformHemisphere,
+        SampleSpace::CosineHemisphere,
+        SampleSpace::ImagePoints(image.clone()),
+        SampleSpace::EnvironmentDirections(image),
+    ];
+    let vector_bytes = |volume: &stbn_gen::VectorVolume| -> Vec<u8> {
+        volume
+            .values()
+            .iter()
+            .flat_map(|v| v.to_le_bytes())
+            .collect()
+    };
+    for space in spaces {
+        let spec = VectorSpec::new(w, h, d, plan.seed, space.clone());
+        let name = format!("{} {}", space.name(), size_name(plan.vector_size));
+        check(name, &|| {
+            Ok(vector_bytes(&stbn_gen::generate_vector(
+                &spec,
+                Observer::default(),
+            )?))
+        })?;
+    }
+    let adapted = FilterAdaptedSpec::new(w, h, d, plan.seed);
+    check(
+        format!("filter-adapted scalar {}", size_name(plan.vector_size)),
+        &|| {
+            let volume = stbn_gen::generate_filter_adapted(&adapted, Observer::default())?;
+            Ok(volume
+                .ranks()
+                .iter()
+                .flat_map(|r| r.to_le_bytes())
+                .collect())
+        },
+    )?;
+    let adapted_vector = adapted.clone().with_space(SampleSpace::UnitVec3);
+    check(
+        format!("filter-adapted unitvec3 {}", size_name(plan.vector_size)),
+        &|| {
+            let volume =
+                stbn_gen::generate_filter_adapted_vector(&adapted_vector, Observer::default())?;
+            Ok(vector_bytes(&volume))
+        },
+    )?;
     if !all_identical {
         return Err(format!("thread count changed a mask: {}", findings.join(" ")).into());
     }
@@ -64,10 +134,12 @@ pub fn threads(plan: &Plan) -> Result<Section> {
         knob: Knob::Threads,
         title: "6. One thread against two".to_owned(),
         method: "The same spec generated inside a rayon pool of 1 thread and of 2 threads \
-                 (`ThreadPoolBuilder::num_threads`, `install`), compared whole (ranks; values \
-                 and energy trace). Void-and-cluster runs its phase 2a beside phases 2b/3; the \
-                 swap optimiser runs the tiles of one colour in parallel. The library promises \
-                 identical output for any thread count; the command fails if it is not."
+                 (`ThreadPoolBuilder::num_threads`, `install`), compared whole (ranks or values). \
+                 Every swap-optimised kind at its default budget (the image kinds over a 64 × 32 \
+                 test image); the filter-adapted masks with their default filters. \
+                 Void-and-cluster runs its phase 2a beside phases 2b/3; the swap optimisers run \
+                 the tiles of one colour in parallel. The library promises identical output for \
+                 any thread count; the command fails if it is not."
             .to_owned(),
         tables: vec![("threads".to_owned(), "Thread count.".to_owned(), table)],
         charts: Vec::new(),

@@ -1,0 +1,44 @@
+#!/usr/bin/env bash
+# Times the vector generator of this tree against that of an earlier revision at their default
+# budgets, seed by seed, alternating the two builds so machine drift hits both, and prints the
+# quality bench's lines of each run (seconds, energy, low bands, filtered error, integration
+# errors) prefixed with `old` or `new`.
+#
+# Usage: scripts/compare-vector-generator.sh REV [SIZE] [SEEDS]
+#   REV    the revision to compare against (a commit, tag or branch)
+#   SIZE   WxHxD, default 128x128x64
+#   SEEDS  comma separated, default 1,2,3
+# STBN_VECTOR_SPACES picks the spaces (default vec2,unitvec3,cosine_hemisphere); STBN_SWAP_SIMD=avx2
+# caps the tile loop's instructions (to measure an AVX2 machine on an AVX-512 one).
+#
+# The old revision is checked out in a temporary worktree and runs this tree's copy of
+# stbn-gen/benches/vector.rs (it uses the public API only), so both print the same figures.
+set -euo pipefail
+root=$(cd "$(dirname "$0")/.." && pwd)
+rev=${1:?usage: scripts/compare-vector-generator.sh REV [SIZE] [SEEDS]}
+size=${2:-128x128x64}
+seeds=${3:-1,2,3}
+export STBN_VECTOR_SPACES=${STBN_VECTOR_SPACES:-vec2,unitvec3,cosine_hemisphere}
+export CARGO_TARGET_DIR=${CARGO_TARGET_DIR:-$root/target}
+
+scratch=$(mktemp -d)
+old="$scratch/old"
+git -C "$root" worktree add --quiet --detach "$old" "$rev"
+trap 'git -C "$root" worktree remove --force "$old"; rm -rf "$scratch"' EXIT
+cp "$root/stbn-gen/benches/vector.rs" "$old/stbn-gen/benches/vector.rs"
+
+for tree in "$old" "$root"; do
+    (cd "$tree" && cargo bench --quiet -p stbn-gen --features analysis --bench vector --no-run)
+done
+lscpu | sed -n 's/^Model name: *//p'
+grep -o -w 'avx2\|avx512f' /proc/cpuinfo | sort -u | tr '\n' ' '
+echo "(STBN_SWAP_SIMD=${STBN_SWAP_SIMD:-unset}), load $(cut -d' ' -f1-3 /proc/loadavg)"
+for seed in ${seeds//,/ }; do
+    for label in old new; do
+        tree=$root
+        [ "$label" = old ] && tree=$old
+        (cd "$tree" && STBN_VECTOR_SEED=$seed STBN_VECTOR_QUALITY=$size \
+            STBN_VECTOR_QUALITY_BUDGETS=default cargo bench --quiet -p stbn-gen --features analysis --bench vector) \
+            | grep -v '^$' | sed "s/^/$label /"
+    done
+done
