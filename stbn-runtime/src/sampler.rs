@@ -425,6 +425,18 @@ impl<'a> Stbn<'a> {
         voxel * self.channels
     }
 
+    /// [`voxel`](Self::voxel) for a mask whose axes are all powers of two (`all_pow2`).
+    #[inline(always)]
+    pub(crate) fn voxel_pow2(&self, x: i32, y: i32, frame: u32, o: SampleOffset) -> usize {
+        debug_assert!(self.all_pow2);
+        // Every axis length divides 2^32, so wrapping u32 sums keep the exact residues; the
+        // packed index is < width*height*depth <= 2^31.
+        let x = (x as u32).wrapping_add(o.x as u32) & self.x.mask;
+        let y = (y as u32).wrapping_add(o.y as u32) & self.y.mask;
+        let z = frame.wrapping_add(o.frame) & self.z.mask;
+        ((z << self.z_shift) | (y << self.y_shift) | x) as usize * self.channels
+    }
+
     /// Decodes element `index` (< element count, so every access is in bounds).
     #[inline(always)]
     pub(crate) fn element(&self, index: usize) -> f32 {

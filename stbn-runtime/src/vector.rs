@@ -101,12 +101,16 @@ mod sealed {
     pub trait FromValue {
         /// Whether [`from_value`](Self::from_value) reads its `pdf` (otherwise it gets 0).
         const NEEDS_PDF: bool;
+        /// The [`Hot`](super::Hot) plans whose per-sample reads of this output are inlined
+        /// into the caller, as a set of `1 << plan` bits.
+        const HOT: u8;
         /// The output for the decoded value `value` (unused components 0) and its pdf.
         fn from_value(value: [f32; 4], pdf: f32) -> Self;
     }
 }
 
 impl sealed::FromValue for Vec2 {
+    const HOT: u8 = Hot::Keep2.bit();
     const NEEDS_PDF: bool = false;
     #[inline(always)]
     fn from_value(value: [f32; 4], _: f32) -> Self {
@@ -115,6 +119,7 @@ impl sealed::FromValue for Vec2 {
 }
 
 impl sealed::FromValue for Vec3 {
+    const HOT: u8 = Hot::Octahedral2.bit() | Hot::Normalise3.bit();
     const NEEDS_PDF: bool = false;
     #[inline(always)]
     fn from_value(value: [f32; 4], _: f32) -> Self {
@@ -123,6 +128,7 @@ impl sealed::FromValue for Vec3 {
 }
 
 impl sealed::FromValue for Vec4 {
+    const HOT: u8 = Hot::Keep4.bit();
     const NEEDS_PDF: bool = false;
     #[inline(always)]
     fn from_value(value: [f32; 4], _: f32) -> Self {
@@ -131,6 +137,7 @@ impl sealed::FromValue for Vec4 {
 }
 
 impl sealed::FromValue for VectorSample {
+    const HOT: u8 = 0;
     const NEEDS_PDF: bool = true;
     #[inline(always)]
     fn from_value(value: [f32; 4], pdf: f32) -> Self {
@@ -158,6 +165,33 @@ pub(crate) struct VectorPlan {
     scale: f32,
     bias: f32,
     pdf: Pdf,
+    /// The plan's hot path, [`Hot::None`] for a mask whose axes are not all powers of two.
+    hot: Hot,
+}
+
+/// The plans whose per-sample reads into the output that lists them are inlined into the
+/// caller: the common ones, on masks whose axes are all powers of two (so that the voxel index
+/// is a few integer instructions), each then straight-line code once the encoding is matched.
+/// Every other read goes through the out-of-line dispatch, with the same arithmetic.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Hot {
+    /// None of the others.
+    None,
+    /// [`Transform::Keep`], 2 value channels of 2.
+    Keep2,
+    /// [`Transform::Keep`], 4 value channels of 4.
+    Keep4,
+    /// [`Transform::Octahedral`], 2 value channels of 2.
+    Octahedral2,
+    /// [`Transform::Normalise`], 3 value channels of 3.
+    Normalise3,
+}
+
+impl Hot {
+    /// This plan's bit in a [`FromValue::HOT`](sealed::FromValue::HOT) set.
+    const fn bit(self) -> u8 {
+        1 << self as u8
+    }
 }
 
 /// How the pdf of a value is found.
@@ -215,12 +249,24 @@ impl VectorPlan {
             ValueMap::Unit => (1.0, -0.0),
             ValueMap::Signed | ValueMap::Octahedral => (2.0, -1.0),
         };
+        let pow2 = header.width.is_power_of_two()
+            && header.height.is_power_of_two()
+            && header.depth.is_power_of_two();
+        let hot = match (pow2, transform, layout) {
+            (false, _, _) => Hot::None,
+            (true, Transform::Keep, Layout::C2S2) => Hot::Keep2,
+            (true, Transform::Keep, Layout::C4S4) => Hot::Keep4,
+            (true, Transform::Octahedral, Layout::C2S2) => Hot::Octahedral2,
+            (true, Transform::Normalise, Layout::C3S3) => Hot::Normalise3,
+            _ => Hot::None,
+        };
         Self {
             transform,
             layout,
             scale,
             bias,
             pdf: Pdf::new(header),
+            hot,
         }
     }
 
@@ -414,12 +460,43 @@ impl Stbn<'_> {
         self.fill_vector_frame_at(frame, SampleOffset::ZERO, out)
     }
 
-    /// The vector at `(x + o.x, y + o.y, frame + o.frame)` as `V`: the one out-of-line call
-    /// behind every per-sample vector method.
+    /// The vector at `(x + o.x, y + o.y, frame + o.frame)` as `V`: behind every per-sample
+    /// vector method. Inlined for the output's [hot plans](Hot) only; every other plan takes
+    /// the one out-of-line call, [`vector_at_dispatched`](Self::vector_at_dispatched).
+    #[inline(always)]
+    pub(crate) fn vector_at<V: VectorOutput>(
+        &self,
+        x: i32,
+        y: i32,
+        frame: u32,
+        o: SampleOffset,
+    ) -> V {
+        // `V::HOT` is a constant: only the tests of this output's hot plans remain, each one
+        // well-predicted compare against the mask's plan, then straight-line code.
+        let hot = self.plan.hot;
+        let visitor = |voxel| VoxelVisitor {
+            mask: self,
+            voxel,
+            output: PhantomData,
+        };
+        if V::HOT & Hot::Keep2.bit() != 0 && hot == Hot::Keep2 {
+            visitor(self.voxel_pow2(x, y, frame, o)).visit::<Keep, 2, 2>(&self.plan)
+        } else if V::HOT & Hot::Keep4.bit() != 0 && hot == Hot::Keep4 {
+            visitor(self.voxel_pow2(x, y, frame, o)).visit::<Keep, 4, 4>(&self.plan)
+        } else if V::HOT & Hot::Octahedral2.bit() != 0 && hot == Hot::Octahedral2 {
+            visitor(self.voxel_pow2(x, y, frame, o)).visit::<Octahedral, 2, 2>(&self.plan)
+        } else if V::HOT & Hot::Normalise3.bit() != 0 && hot == Hot::Normalise3 {
+            visitor(self.voxel_pow2(x, y, frame, o)).visit::<Normalise, 3, 3>(&self.plan)
+        } else {
+            self.vector_at_dispatched(x, y, frame, o)
+        }
+    }
+
+    /// [`vector_at`](Self::vector_at) through the full dispatch on the plan.
     // Not `#[inline]`: it holds the dispatch on the mask's layout, which would swell a caller's
     // pixel loop (and measured slower there).
     #[inline(never)]
-    pub(crate) fn vector_at<V: VectorOutput>(
+    fn vector_at_dispatched<V: VectorOutput>(
         &self,
         x: i32,
         y: i32,

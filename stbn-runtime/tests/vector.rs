@@ -553,3 +553,92 @@ fn vector_reads_decode_every_layout_as_documented() {
         }
     }
 }
+
+/// F32 payload elements a hand-made blob may hold, beside the `[0, 1)` range of real masks:
+/// zeros (zero vectors), the bin edges, negatives, infinities and NaNs.
+const F32_EDGES: [f32; 10] = [
+    0.0,
+    -0.0,
+    0.5,
+    1.0,
+    -1.0,
+    1e-30,
+    f32::INFINITY,
+    f32::NEG_INFINITY,
+    f32::NAN,
+    2.0,
+];
+
+#[test]
+fn inlined_reads_match_the_dispatched_read_and_the_fills_on_every_voxel() {
+    // `sample_vec2/3/4` inline the common plans (on power-of-two masks); `sample_vector` and the
+    // fills take the dispatched code. Every voxel of every layout, both shapes, must agree bit
+    // for bit, including F32 payloads with zeros, infinities and NaNs.
+    let mut masks = layout_masks();
+    let mut rng = Rng(99);
+    for (w, h, d) in [(4, 4, 2), (3, 5, 3)] {
+        for (space, map, channels, pdf_min, pdf_max) in LAYOUTS {
+            let header = MaskHeader::new(w, h, d, channels, Encoding::F32)
+                .with_space(space, map, pdf_min, pdf_max);
+            let payload: Vec<u8> = (0..header.decoded_len() / 4)
+                .flat_map(|_| F32_EDGES[rng.next_u32() as usize % F32_EDGES.len()].to_le_bytes())
+                .collect();
+            masks.push((header, blob(header, &payload)));
+        }
+    }
+    let mut checked = 0;
+    for (header, bytes) in masks {
+        let stbn = Stbn::from_bytes(&bytes).unwrap();
+        let (w, h, d) = (stbn.width(), stbn.height(), stbn.depth());
+        let view = stbn.offset(SampleOffset {
+            x: -1,
+            y: 3,
+            frame: u32::MAX,
+        });
+        let (mut row2, mut row3, mut row4) = (
+            vec![Vec2::ZERO; w as usize],
+            vec![Vec3::ZERO; w as usize],
+            vec![Vec4::ZERO; w as usize],
+        );
+        for f in 0..d {
+            for y in 0..h as i32 {
+                stbn.fill_vector_row(0, y, f, &mut row2);
+                stbn.fill_vector_row(0, y, f, &mut row3);
+                stbn.fill_vector_row(0, y, f, &mut row4);
+                for x in 0..w as i32 {
+                    let what = format!("{header:?} ({x},{y},{f})");
+                    let v = stbn.sample_vector(x, y, f).value;
+                    let i = x as usize;
+                    assert_eq!(bits4(stbn.sample_vec4(x, y, f)), bits4(v), "{what}");
+                    assert_eq!(bits4(row4[i]), bits4(v), "{what}");
+                    let v3 = stbn.sample_vec3(x, y, f);
+                    assert_eq!(
+                        bits4(v3.extend(0.0)),
+                        bits4(v.truncate().extend(0.0)),
+                        "{what}"
+                    );
+                    assert_eq!(bits4(row3[i].extend(0.0)), bits4(v3.extend(0.0)), "{what}");
+                    let v2 = stbn.sample_vec2(x, y, f).extend(0.0).extend(0.0);
+                    let expected = v.truncate().truncate().extend(0.0).extend(0.0);
+                    assert_eq!(bits4(v2), bits4(expected), "{what}");
+                    assert_eq!(bits4(row2[i].extend(0.0).extend(0.0)), bits4(v2), "{what}");
+                    // The offset view's inlined reads: the mask's at the shifted position.
+                    let (sx, sy, sf) = (
+                        (x - 1).rem_euclid(w as i32),
+                        (y + 3).rem_euclid(h as i32),
+                        ((u64::from(f) + u64::from(u32::MAX)) % u64::from(d)) as u32,
+                    );
+                    let shifted = stbn.sample_vector(sx, sy, sf).value;
+                    assert_eq!(bits4(view.sample_vec4(x, y, f)), bits4(shifted), "{what}");
+                    let v3 = view.sample_vec3(x, y, f).extend(0.0);
+                    assert_eq!(bits4(v3), bits4(shifted.truncate().extend(0.0)), "{what}");
+                    let v2 = view.sample_vec2(x, y, f).extend(0.0).extend(0.0);
+                    let expected = shifted.truncate().truncate().extend(0.0).extend(0.0);
+                    assert_eq!(bits4(v2), bits4(expected), "{what}");
+                    checked += 1;
+                }
+            }
+        }
+    }
+    assert!(checked > 6_000, "{checked}");
+}
