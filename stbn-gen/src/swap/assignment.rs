@@ -107,6 +107,11 @@ impl SwapKernel {
         costs: &mut [f64],
     ) {
         let taps = scratch.taps;
+        if taps == 0 {
+            // A kernel with no taps (σ far below a pixel, or a 1 × 1 × 1 volume): no energy.
+            costs.fill(0.0);
+            return;
+        }
         let padded = taps.div_ceil(FACTOR_LANES) * FACTOR_LANES;
         let entries = values.len() * padded;
         for (row, value) in distances.chunks_exact_mut(padded).zip(values) {
@@ -334,6 +339,27 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// A kernel without taps (σi far below a pixel) has no energy: assignment passes keep every
+    /// value where it is and report no change.
+    #[test]
+    fn assignment_passes_without_taps_change_nothing() {
+        use crate::SampleSpace;
+        let spec = VectorSpec {
+            sigma_image: 0.05,
+            ..VectorSpec::new(40, 36, 2, 4, SampleSpace::Vec { dims: 2 })
+        }
+        .unoptimised();
+        let start = crate::generate_vector(&spec, crate::Observer::default())
+            .unwrap()
+            .values()
+            .to_vec();
+        let mut o = SwapOptimizer::new(&spec, start.clone());
+        assert_eq!(o.kernel().spatial.len() + o.kernel().temporal.len(), 0);
+        o.run_assignment_pass(ASSIGNMENT_SET, &mut |_| {});
+        assert_eq!(o.values(), start);
+        assert_eq!((o.energy(), o.swaps_accepted()), (0.0, 0));
     }
 
     /// Assignment passes lower the energy, keep the running energy and every cached pixel
