@@ -19,7 +19,11 @@ rev=${1:?usage: scripts/compare-vector-generator.sh REV [SIZE] [SEEDS]}
 size=${2:-128x128x64}
 seeds=${3:-1,2,3}
 export STBN_VECTOR_SPACES=${STBN_VECTOR_SPACES:-vec2,unitvec3,cosine_hemisphere}
-export CARGO_TARGET_DIR=${CARGO_TARGET_DIR:-$root/target}
+target=${CARGO_TARGET_DIR:-$root/target}
+# The old tree builds into its own folder: cargo names a workspace member's artifacts after its
+# path relative to the workspace, so two checkouts sharing a target folder would overwrite each
+# other's benches and take the other's as fresh.
+old_target=$target/compare-old
 
 scratch=$(mktemp -d)
 old="$scratch/old"
@@ -27,18 +31,22 @@ git -C "$root" worktree add --quiet --detach "$old" "$rev"
 trap 'git -C "$root" worktree remove --force "$old"; rm -rf "$scratch"' EXIT
 cp "$root/stbn-gen/benches/vector.rs" "$old/stbn-gen/benches/vector.rs"
 
-for tree in "$old" "$root"; do
-    (cd "$tree" && cargo bench --quiet -p stbn-gen --features analysis --bench vector --no-run)
-done
+bench() { # TREE TARGET [cargo args...]
+    local tree=$1 dir=$2
+    shift 2
+    (cd "$tree" && CARGO_TARGET_DIR=$dir cargo bench --quiet -p stbn-gen --features analysis \
+        --bench vector "$@")
+}
+bench "$old" "$old_target" --no-run
+bench "$root" "$target" --no-run
 lscpu | sed -n 's/^Model name: *//p'
 grep -o -w 'avx2\|avx512f' /proc/cpuinfo | sort -u | tr '\n' ' '
 echo "(STBN_SWAP_SIMD=${STBN_SWAP_SIMD:-unset}), load $(cut -d' ' -f1-3 /proc/loadavg)"
 for seed in ${seeds//,/ }; do
     for label in old new; do
-        tree=$root
-        [ "$label" = old ] && tree=$old
-        (cd "$tree" && STBN_VECTOR_SEED=$seed STBN_VECTOR_QUALITY=$size \
-            STBN_VECTOR_QUALITY_BUDGETS=default cargo bench --quiet -p stbn-gen --features analysis --bench vector) \
-            | grep -v '^$' | sed "s/^/$label /"
+        tree=$root dir=$target
+        [ "$label" = old ] && tree=$old dir=$old_target
+        STBN_VECTOR_SEED=$seed STBN_VECTOR_QUALITY=$size STBN_VECTOR_QUALITY_BUDGETS=default \
+            bench "$tree" "$dir" | grep -v '^$' | sed "s/^/$label /"
     done
 done
