@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Times the vector generator of this tree against that of an earlier revision at their default
-# budgets, seed by seed, alternating the two builds so machine drift hits both, and prints the
+# budgets, seed by seed, alternating which build runs first so machine drift hits both, and prints the
 # quality bench's lines of each run (seconds, energy, low bands, filtered error, integration
 # errors) prefixed with `old` or `new`.
 #
@@ -19,7 +19,7 @@ rev=${1:?usage: scripts/compare-vector-generator.sh REV [SIZE] [SEEDS]}
 size=${2:-128x128x64}
 seeds=${3:-1,2,3}
 export STBN_VECTOR_SPACES=${STBN_VECTOR_SPACES:-vec2,unitvec3,cosine_hemisphere}
-target=${CARGO_TARGET_DIR:-$root/target}
+target=$(realpath -m "${CARGO_TARGET_DIR:-$root/target}")
 # The old tree builds into its own folder: cargo names a workspace member's artifacts after its
 # path relative to the workspace, so two checkouts sharing a target folder would overwrite each
 # other's benches and take the other's as fresh.
@@ -27,8 +27,9 @@ old_target=$target/compare-old
 
 scratch=$(mktemp -d)
 old="$scratch/old"
+trap 'git -C "$root" worktree remove --force "$old" 2>/dev/null || true; rm -rf "$scratch"
+      git -C "$root" worktree prune' EXIT
 git -C "$root" worktree add --quiet --detach "$old" "$rev"
-trap 'git -C "$root" worktree remove --force "$old"; rm -rf "$scratch"' EXIT
 cp "$root/stbn-gen/benches/vector.rs" "$old/stbn-gen/benches/vector.rs"
 
 bench() { # TREE TARGET [cargo args...]
@@ -39,14 +40,16 @@ bench() { # TREE TARGET [cargo args...]
 }
 bench "$old" "$old_target" --no-run
 bench "$root" "$target" --no-run
-lscpu | sed -n 's/^Model name: *//p'
-grep -o -w 'avx2\|avx512f' /proc/cpuinfo | sort -u | tr '\n' ' '
+lscpu 2>/dev/null | sed -n 's/^Model name: *//p' || true
+{ grep -o -w 'avx2\|avx512f' /proc/cpuinfo || true; } | sort -u | tr '\n' ' '
 echo "(STBN_SWAP_SIMD=${STBN_SWAP_SIMD:-unset}), load $(cut -d' ' -f1-3 /proc/loadavg)"
+order="old new"
 for seed in ${seeds//,/ }; do
-    for label in old new; do
+    for label in $order; do
         tree=$root dir=$target
         [ "$label" = old ] && tree=$old dir=$old_target
         STBN_VECTOR_SEED=$seed STBN_VECTOR_QUALITY=$size STBN_VECTOR_QUALITY_BUDGETS=default \
-            bench "$tree" "$dir" | grep -v '^$' | sed "s/^/$label /"
+            bench "$tree" "$dir" | sed -e '/^$/d' -e "s/^/$label /"
     done
+    [ "$order" = "old new" ] && order="new old" || order="old new"
 done

@@ -245,7 +245,7 @@ fn quick_tradeoff_writes_every_table_and_plot_and_its_figures_hold_together() {
             .all(|&s| s > 0.0)
     );
 
-    // Threads: the same masks on 1 and 2 threads: the scalar mask and the 12 swap-optimised
+    // Threads: the same masks on 1 and 2 threads: the scalar mask and 12 swap-optimised
     // kinds, each a 1-thread row then an identical 2-thread row.
     let threads = Csv::read(&out.join("threads.csv"));
     let identical: Vec<&str> = threads.get("identical_to_1_thread").collect();

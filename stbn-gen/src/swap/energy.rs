@@ -34,12 +34,13 @@ fn distance_power<const D: usize>(s: f32) -> f32 {
 }
 
 /// The value factor `exp(−x)`, `x = ‖a − b‖^(D/3) / σs²`, from `s = ‖a − b‖²` (computed in `f32`
-/// from the `f32` values, components in order), to a relative `4·10⁻⁵ · max(1, x)`.
+/// from the `f32` values, components in order), to a relative `4·10⁻⁵ · max(1, x)` for `x ≤ 86`
+/// (beyond, it is `e^−87`).
 ///
 /// This function *is* the energy's value term: every energy, cached or recomputed, goes through
 /// it, so they agree to the rounding of the `f64` sums. Single precision evaluates 8 lanes per
-/// AVX2 instruction instead of 4; together with the shorter polynomial that made the optimiser
-/// about 1.4× faster than an `f64` version with a degree-9 polynomial (64×64×32 Vec2, 16 swaps
+/// AVX2 instruction instead of 4; together with a shorter polynomial (version 4's degree 7) that
+/// made the optimiser about 1.4× faster than an `f64` version with a degree-9 polynomial (64×64×32 Vec2, 16 swaps
 /// per pixel, AVX2, two runs each: 0.61–0.64 s against 0.88–0.89 s; `f64` with [`exp_neg`]'s
 /// degree 12 and four Newton steps took 1.06 s).
 #[inline(always)]

@@ -40,8 +40,8 @@ fn test_image() -> Result<Arc<ImagePdf>> {
     Ok(Arc::new(ImagePdf::from_luminance(w, h, luminance)?))
 }
 
-/// The scalar mask and every swap-optimised kind at its default budget, generated in pools of 1
-/// and 2 threads.
+/// The scalar mask and every swap-optimised kind but UnitVec1 (±1 values) at its default budget,
+/// generated in pools of 1 and 2 threads.
 pub fn threads(plan: &Plan) -> Result<Section> {
     let mut table = Table::new(&[
         ("mask", "mask", false),
@@ -135,8 +135,8 @@ pub fn threads(plan: &Plan) -> Result<Section> {
         title: "6. One thread against two".to_owned(),
         method: "The same spec generated inside a rayon pool of 1 thread and of 2 threads \
                  (`ThreadPoolBuilder::num_threads`, `install`), compared whole (ranks or values). \
-                 Every swap-optimised kind at its default budget (the image kinds over a 64 × 32 \
-                 test image); the filter-adapted masks with their default filters. \
+                 Every swap-optimised kind but UnitVec1 at its default budget (the image kinds \
+                 over a 64 × 32 test image); the filter-adapted masks with their default filters. \
                  Void-and-cluster runs its phase 2a beside phases 2b/3; the swap optimisers run \
                  the tiles of one colour in parallel. The library promises identical output for \
                  any thread count; the command fails if it is not."
