@@ -23,8 +23,9 @@ use std::time::Instant;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use stbn_gen::analysis::{
-    ConvergenceOptions, Field, FilteredErrorOptions, Integrand2D, TestFunction, VectorField,
-    convergence_2d, filtered_error_vector, spatial_low_band, temporal_low_band, vector_convergence,
+    Convergence, ConvergenceOptions, Field, FilteredErrorOptions, Integrand2D, TestFunction,
+    VectorField, convergence_2d, filtered_error_vector, spatial_low_band, temporal_low_band,
+    vector_convergence,
 };
 use stbn_gen::{
     EnergyTrace, Observer, SampleSpace, VectorSpec, VectorSpecError, VectorVolume, generate_vector,
@@ -147,6 +148,16 @@ fn fields<'a>(volume: &VectorVolume, values: &'a [Vec<f64>]) -> Vec<Field<'a>> {
         .collect()
 }
 
+/// One line of integration errors: MC RMSE after half the frames, EMA RMSE at the last.
+fn print_errors(what: &str, c: &Convergence, frames: usize) {
+    println!(
+        "  {what}: MC RMSE after {} frames {:.4}, EMA RMSE {:.4}",
+        frames / 2,
+        c.monte_carlo[frames / 2 - 1],
+        c.ema[frames - 1]
+    );
+}
+
 fn quality(_: &mut Criterion) {
     let Ok(size) = std::env::var("STBN_VECTOR_QUALITY") else {
         return;
@@ -195,13 +206,7 @@ fn quality(_: &mut Criterion) {
                 let exact = function.expected(&space);
                 let c =
                     vector_convergence(&field, function, exact, ConvergenceOptions::new(frames));
-                println!(
-                    "  test function {}: MC RMSE after {} frames {:.4}, EMA RMSE {:.4}",
-                    function.name(),
-                    frames / 2,
-                    c.monte_carlo[frames / 2 - 1],
-                    c.ema[frames - 1]
-                );
+                print_errors(&format!("test function {}", function.name()), &c, frames);
             }
             if fields.len() == 2 {
                 for integrand in Integrand2D::ALL {
@@ -212,13 +217,7 @@ fn quality(_: &mut Criterion) {
                         ConvergenceOptions::new(frames),
                     )
                     .unwrap();
-                    println!(
-                        "  {}: MC RMSE after {} frames {:.4}, EMA RMSE {:.4}",
-                        integrand.name(),
-                        frames / 2,
-                        c.monte_carlo[frames / 2 - 1],
-                        c.ema[frames - 1]
-                    );
+                    print_errors(integrand.name(), &c, frames);
                 }
             }
         }

@@ -409,19 +409,13 @@ impl<'a> Stbn<'a> {
     /// wrapped toroidally; that and the next `channels - 1` elements are in bounds.
     #[inline(always)]
     pub(crate) fn voxel(&self, x: i32, y: i32, frame: u32, o: SampleOffset) -> usize {
-        let voxel = if self.all_pow2 {
-            // Every axis length divides 2^32, so wrapping u32 sums keep the exact
-            // residues; the packed index is < width*height*depth <= 2^31.
-            let x = (x as u32).wrapping_add(o.x as u32) & self.x.mask;
-            let y = (y as u32).wrapping_add(o.y as u32) & self.y.mask;
-            let z = frame.wrapping_add(o.frame) & self.z.mask;
-            ((z << self.z_shift) | (y << self.y_shift) | x) as usize
-        } else {
-            (self.z.wrap_unsigned(frame, o.frame) * self.header.height as usize
-                + self.y.wrap_signed(y, o.y))
-                * self.header.width as usize
-                + self.x.wrap_signed(x, o.x)
-        };
+        if self.all_pow2 {
+            return self.voxel_pow2(x, y, frame, o);
+        }
+        let voxel = (self.z.wrap_unsigned(frame, o.frame) * self.header.height as usize
+            + self.y.wrap_signed(y, o.y))
+            * self.header.width as usize
+            + self.x.wrap_signed(x, o.x);
         voxel * self.channels
     }
 

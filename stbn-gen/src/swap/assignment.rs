@@ -167,7 +167,6 @@ impl SwapKernel {
         let mut distances = vec![0.0f32; k_max * padded];
         let mut factors = vec![0.0f32; k_max * k_max * padded];
         let mut set_values: Vec<[f32; D]> = Vec::with_capacity(k_max);
-        let mut row_costs = vec![0.0f64; k_max];
         let shortlist = ASSIGNMENT_SHORTLIST.min(n as usize);
         let moves = (n as usize).div_ceil(k_max);
         for z in 0..self.depth {
@@ -243,9 +242,8 @@ impl SwapKernel {
                             &mut factors[r * k * padded..(r + 1) * k * padded],
                         ),
                         &mut scratch,
-                        &mut row_costs[..k],
+                        &mut cost[r * k..(r + 1) * k],
                     );
-                    cost[r * k..(r + 1) * k].copy_from_slice(&row_costs[..k]);
                 }
                 min_cost_assignment(&cost[..k * k], k, &mut perm[..k]);
                 let before: f64 = (0..k).map(|r| cost[r * k + r]).sum();

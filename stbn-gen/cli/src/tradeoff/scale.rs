@@ -3,7 +3,9 @@
 
 use std::sync::Arc;
 
-use stbn_gen::{FilterAdaptedSpec, ImagePdf, MaskSpec, Observer, SampleSpace, VectorSpec};
+use stbn_gen::{
+    FilterAdaptedSpec, ImagePdf, MaskSpec, Observer, SampleSpace, VectorSpec, VectorVolume, Volume,
+};
 
 use super::measure::{Timing, load_average, timed};
 use super::{Knob, Plan, Section, size_name};
@@ -40,6 +42,24 @@ fn test_image() -> Result<Arc<ImagePdf>> {
     Ok(Arc::new(ImagePdf::from_luminance(w, h, luminance)?))
 }
 
+/// A scalar mask's ranks as bytes, to compare two runs whole.
+fn rank_bytes(volume: &Volume) -> Vec<u8> {
+    volume
+        .ranks()
+        .iter()
+        .flat_map(|r| r.to_le_bytes())
+        .collect()
+}
+
+/// A vector mask's values as bytes, to compare two runs whole (bit for bit, NaN included).
+fn vector_bytes(volume: &VectorVolume) -> Vec<u8> {
+    volume
+        .values()
+        .iter()
+        .flat_map(|v| v.to_le_bytes())
+        .collect()
+}
+
 /// The scalar mask and every swap-optimised kind but UnitVec1 (±1 values) at its default budget,
 /// generated in pools of 1 and 2 threads.
 pub fn threads(plan: &Plan) -> Result<Section> {
@@ -68,11 +88,7 @@ pub fn threads(plan: &Plan) -> Result<Section> {
         format!("scalar {}", size_name(plan.threads_scalar)),
         &|| {
             let volume = stbn_gen::generate(&scalar, Observer::default())?;
-            Ok(volume
-                .ranks()
-                .iter()
-                .flat_map(|r| r.to_le_bytes())
-                .collect())
+            Ok(rank_bytes(&volume))
         },
     )?;
     let image = test_image()?;
@@ -89,13 +105,6 @@ pub fn threads(plan: &Plan) -> Result<Section> {
         SampleSpace::ImagePoints(image.clone()),
         SampleSpace::EnvironmentDirections(image),
     ];
-    let vector_bytes = |volume: &stbn_gen::VectorVolume| -> Vec<u8> {
-        volume
-            .values()
-            .iter()
-            .flat_map(|v| v.to_le_bytes())
-            .collect()
-    };
     for space in spaces {
         let spec = VectorSpec::new(w, h, d, plan.seed, space.clone());
         let name = format!("{} {}", space.name(), size_name(plan.vector_size));
@@ -111,11 +120,7 @@ pub fn threads(plan: &Plan) -> Result<Section> {
         format!("filter-adapted scalar {}", size_name(plan.vector_size)),
         &|| {
             let volume = stbn_gen::generate_filter_adapted(&adapted, Observer::default())?;
-            Ok(volume
-                .ranks()
-                .iter()
-                .flat_map(|r| r.to_le_bytes())
-                .collect())
+            Ok(rank_bytes(&volume))
         },
     )?;
     let adapted_vector = adapted.clone().with_space(SampleSpace::UnitVec3);
