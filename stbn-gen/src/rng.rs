@@ -43,9 +43,35 @@ pub(crate) fn keyed_rng(seed: u64, tag: u64, a: u64, b: u64) -> ChaCha8Rng {
 }
 
 /// A uniform index in `0..n` other than `i` (`n ≥ 2`), from one `u32` of `rng` (multiply-shift,
-/// bias below 2⁻¹⁶ for tiles of up to 2¹⁶ pixels): how both optimisers draw swap partners.
+/// bias below 2⁻¹⁶ for tiles of up to 2¹⁶ pixels).
 #[inline(always)]
-pub(crate) fn other_index(rng: &mut ChaCha8Rng, i: u32, n: u32) -> u32 {
+fn other_index(rng: &mut ChaCha8Rng, i: u32, n: u32) -> u32 {
     let j = ((u64::from(rng.next_u32()) * u64::from(n - 1)) >> 32) as u32;
     if j >= i { j + 1 } else { j }
+}
+
+/// The swap partner of tile pixel `i` (of `n ≥ 2`), as both swap optimisers choose it: of
+/// `candidates` indices drawn uniformly among the other pixels (with replacement, one `u32` of
+/// `rng` each), the one with the least `distance` (the first of equals). `distance(j)` is how far
+/// pixel `j`'s value is from `i`'s; it is not called when `candidates ≤ 1` (a uniform partner).
+#[inline(always)]
+pub(crate) fn nearest_partner<K: PartialOrd>(
+    rng: &mut ChaCha8Rng,
+    i: u32,
+    n: u32,
+    candidates: u32,
+    mut distance: impl FnMut(u32) -> K,
+) -> u32 {
+    let mut partner = other_index(rng, i, n);
+    if candidates > 1 {
+        let mut nearest = distance(partner);
+        for _ in 1..candidates {
+            let candidate = other_index(rng, i, n);
+            let d = distance(candidate);
+            if d < nearest {
+                (partner, nearest) = (candidate, d);
+            }
+        }
+    }
+    partner
 }

@@ -9,7 +9,7 @@ use super::energy::{
 };
 use super::region::{Region, region_indices};
 use super::{PassPlan, TileResult};
-use crate::rng::other_index;
+use crate::rng::nearest_partner;
 use crate::schedule::Tile;
 
 /// Per-task buffers of one swap evaluation of pixels `a` and `b`: one entry per neighbour tap of
@@ -228,28 +228,14 @@ impl SwapKernel {
             let base = z as usize * slice;
             order.shuffle(&mut rng);
             for &i in &order[..count] {
-                let mut draw = || other_index(&mut rng, i, n);
                 // The candidate whose value is nearest but not equal (swapping equal values
                 // changes nothing, and spaces like ±1 have many), the first of equals.
-                let mut j = draw();
-                if plan.partner_candidates > 1 {
-                    let value = region.value::<D>(base + in_slice[i as usize]);
-                    let distance = |j: u32| {
-                        let d = squared_distance(
-                            &value,
-                            &region.value::<D>(base + in_slice[j as usize]),
-                        );
-                        if d > 0.0 { d } else { f32::INFINITY }
-                    };
-                    let mut nearest = distance(j);
-                    for _ in 1..plan.partner_candidates {
-                        let candidate = draw();
-                        let d = distance(candidate);
-                        if d < nearest {
-                            (j, nearest) = (candidate, d);
-                        }
-                    }
-                }
+                let value = region.value::<D>(base + in_slice[i as usize]);
+                let j = nearest_partner(&mut rng, i, n, plan.partner_candidates, |j| {
+                    let other = region.value::<D>(base + in_slice[j as usize]);
+                    let d = squared_distance(&value, &other);
+                    if d > 0.0 { d } else { f32::INFINITY }
+                });
                 result.attempted += 1;
                 if let Some(delta) = self.attempt::<D>(region, z, pixel(i), pixel(j), &mut scratch)
                 {
