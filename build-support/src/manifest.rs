@@ -26,7 +26,7 @@
 //!             temporal_filter: Exponential(0.1),
 //!             filter_combination: Product, // optional: Product | Separate(spatial weight)
 //!             space: Vec2,            // optional: a vector mask of this vector kind's space
-//!             swaps_per_pixel: 64.0,  // optional, the optimiser's budget
+//!             swaps_per_pixel: 6.0,   // optional, the optimiser's budget
 //!             encoding: Unorm8,
 //!         ),
 //!         (

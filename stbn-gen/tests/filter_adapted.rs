@@ -1,7 +1,7 @@
 //! Filter-adapted masks (`generate_filter_adapted`, `generate_filter_adapted_vector`): exact
-//! stratification, determinism, traces and progress, and that they beat STBN on the filtered
-//! error they are made for. The optimiser's exact incremental energies are checked by its unit
-//! tests.
+//! stratification, determinism, traces and progress, that they beat STBN on the filtered error
+//! they are made for, and their output pinned to the generator version. The optimiser's exact
+//! incremental energies are checked by its unit tests.
 
 use stbn_gen::analysis::{Field, FilteredErrorOptions, filtered_error};
 use stbn_gen::{
@@ -178,7 +178,7 @@ fn filtered_last(volume: &Volume) -> f64 {
 #[test]
 fn beats_stbn_on_the_filtered_error_at_32x32x16() {
     let stbn = stbn_gen::generate(&MaskSpec::new(32, 32, 16, 7), Observer::default()).unwrap();
-    let spec = FilterAdaptedSpec::new(32, 32, 16, 7).with_swaps_per_pixel(32.0);
+    let spec = FilterAdaptedSpec::new(32, 32, 16, 7);
     let adapted = generate_filter_adapted(&spec, Observer::default()).unwrap();
     let (s, a) = (filtered_last(&stbn), filtered_last(&adapted));
     eprintln!("32×32×16 filtered error at the last frame: STBN {s:.5}, filter-adapted {a:.5}");
@@ -352,4 +352,39 @@ fn footprint_of_the_default_filters() {
     );
     // 5×5 spatial (binomial 3 taps autocorrelated) at Δt = 0 plus Δt = ±1 at the origin.
     assert_eq!(narrow.kernel_taps(), 25 + 2);
+}
+
+/// FNV-1a of a byte stream.
+fn digest(bytes: impl Iterator<Item = u8>) -> u64 {
+    bytes.fold(0xcbf2_9ce4_8422_2325, |h, b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+    })
+}
+
+#[test]
+fn output_is_pinned_to_the_generator_version() {
+    // If this fails, the filter-adapted output changed: bump `GENERATOR_VERSION` (so caches
+    // regenerate) and record the new digests here. Pinned from version 6 on.
+    let pinned: [(u32, [u64; 2]); 1] = [(6, [0x44ef_c200_19a2_6195, 0xc745_e345_3b24_f9e5])];
+    let spec = FilterAdaptedSpec::new(16, 16, 8, 2026);
+    let scalar = generate_filter_adapted(&spec, Observer::default()).unwrap();
+    let vector = generate_filter_adapted_vector(
+        &spec.with_space(SampleSpace::UnitVec3),
+        Observer::default(),
+    )
+    .unwrap();
+    let digests = [
+        digest(scalar.ranks().iter().flat_map(|r| r.to_le_bytes())),
+        digest(
+            vector
+                .values()
+                .iter()
+                .flat_map(|v| v.to_bits().to_le_bytes()),
+        ),
+    ];
+    let expected = pinned
+        .iter()
+        .find(|(version, _)| *version == stbn_gen::GENERATOR_VERSION)
+        .map(|&(_, digests)| digests);
+    assert_eq!(Some(digests), expected, "digests {digests:#018x?}");
 }

@@ -135,7 +135,7 @@ pub struct FilterAdaptedSpec {
 
 impl FilterAdaptedSpec {
     /// Default budget in swaps proposed per pixel (BENCHMARKS.md has the curve).
-    pub const DEFAULT_SWAPS_PER_PIXEL: f64 = 64.0;
+    pub const DEFAULT_SWAPS_PER_PIXEL: f64 = 6.0;
     /// Default truncation of the pair weights.
     pub const DEFAULT_KERNEL_TOLERANCE: f64 = 5e-3;
     /// Largest budget accepted.
