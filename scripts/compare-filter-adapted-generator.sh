@@ -12,30 +12,23 @@
 #   SPACE  a vector kind for a filter-adapted vector mask (e.g. UnitVec3); default scalar
 #
 # The old revision is checked out in a temporary worktree and builds its own `stbn-gen` in its own
-# target folder (see scripts/compare-vector-generator.sh for why).
+# target folder (scripts/compare-common.sh says why).
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 rev=${1:?usage: scripts/compare-filter-adapted-generator.sh REV [SIZE] [SEEDS] [SPACE]}
 IFS=x read -r w h d <<<"${2:-128x128x64}"
 seeds=${3:-1,2,3}
 space=${4:+"space: Some($4), "}
-target=$(realpath -m "${CARGO_TARGET_DIR:-$root/target}")
-old_target=$target/compare-old
-
-scratch=$(mktemp -d)
-old="$scratch/old"
-trap 'git -C "$root" worktree remove --force "$old" 2>/dev/null || true; rm -rf "$scratch"
-      git -C "$root" worktree prune' EXIT
-git -C "$root" worktree add --quiet --detach "$old" "$rev"
+# shellcheck source=scripts/compare-common.sh
+. "$root/scripts/compare-common.sh"
+compare_checkout "$root" "$rev"
 
 build() { # TREE TARGET
     (cd "$1" && CARGO_TARGET_DIR=$2 cargo build --quiet --release -p stbn-gen-cli)
 }
 build "$old" "$old_target"
 build "$root" "$target"
-lscpu 2>/dev/null | sed -n 's/^Model name: *//p' || true
-{ grep -o -w 'avx2\|avx512f' /proc/cpuinfo || true; } | sort -u | tr '\n' ' '
-echo "(STBN_SWAP_SIMD=${STBN_SWAP_SIMD:-unset}), load $(cut -d' ' -f1-3 /proc/loadavg)"
+compare_machine
 order="old new"
 header=
 for seed in ${seeds//,/ }; do

@@ -19,17 +19,9 @@ rev=${1:?usage: scripts/compare-vector-generator.sh REV [SIZE] [SEEDS]}
 size=${2:-128x128x64}
 seeds=${3:-1,2,3}
 export STBN_VECTOR_SPACES=${STBN_VECTOR_SPACES:-vec2,unitvec3,cosine_hemisphere}
-target=$(realpath -m "${CARGO_TARGET_DIR:-$root/target}")
-# The old tree builds into its own folder: cargo names a workspace member's artifacts after its
-# path relative to the workspace, so two checkouts sharing a target folder would overwrite each
-# other's benches and take the other's as fresh.
-old_target=$target/compare-old
-
-scratch=$(mktemp -d)
-old="$scratch/old"
-trap 'git -C "$root" worktree remove --force "$old" 2>/dev/null || true; rm -rf "$scratch"
-      git -C "$root" worktree prune' EXIT
-git -C "$root" worktree add --quiet --detach "$old" "$rev"
+# shellcheck source=scripts/compare-common.sh
+. "$root/scripts/compare-common.sh"
+compare_checkout "$root" "$rev"
 cp "$root/stbn-gen/benches/vector.rs" "$old/stbn-gen/benches/vector.rs"
 
 bench() { # TREE TARGET [cargo args...]
@@ -40,9 +32,7 @@ bench() { # TREE TARGET [cargo args...]
 }
 bench "$old" "$old_target" --no-run
 bench "$root" "$target" --no-run
-lscpu 2>/dev/null | sed -n 's/^Model name: *//p' || true
-{ grep -o -w 'avx2\|avx512f' /proc/cpuinfo || true; } | sort -u | tr '\n' ' '
-echo "(STBN_SWAP_SIMD=${STBN_SWAP_SIMD:-unset}), load $(cut -d' ' -f1-3 /proc/loadavg)"
+compare_machine
 order="old new"
 for seed in ${seeds//,/ }; do
     for label in $order; do
