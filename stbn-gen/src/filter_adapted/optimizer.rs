@@ -65,7 +65,7 @@ use crate::swap::Build;
 
 /// Spatial taps with `Δx² + Δy² ≤ CORE_RADIUS_SQUARED` (the pixel and its 8 neighbours, times
 /// every temporal tap) form the screening core. Cores of radius √2, 2 and √8 reach the same
-/// filtered error per pass at 128×128×64; the smallest costs the least.
+/// filtered error per pass at 128×128×64 (with uniform partners); the smallest costs the least.
 pub(crate) const CORE_RADIUS_SQUARED: i32 = 2;
 
 /// Candidates a proposing pixel draws from its tile (distance energy); it proposes the one whose
@@ -304,7 +304,7 @@ pub(crate) struct Optimizer {
 
 impl Optimizer {
     /// Preferred tile side in pixels. Tiles of 32 reach the same filtered error per pass at
-    /// 128×128×64 (BENCHMARKS.md).
+    /// 128×128×64 (with uniform partners, BENCHMARKS.md).
     pub const TILE_TARGET: u32 = 16;
 
     /// An optimiser over `perm` (per pixel, the index of its value in its frame) for `energy`, of
