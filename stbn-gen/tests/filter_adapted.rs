@@ -3,6 +3,8 @@
 //! they are made for, and their output pinned to the generator version. The optimiser's exact
 //! incremental energies are checked by its unit tests.
 
+mod common;
+
 use stbn_gen::analysis::{Field, FilteredErrorOptions, filtered_error};
 use stbn_gen::{
     EnergyTrace, FilterAdaptedSpec, FilterAdaptedSpecError, FilterAdaptedVectorSpec,
@@ -354,13 +356,6 @@ fn footprint_of_the_default_filters() {
     assert_eq!(narrow.kernel_taps(), 25 + 2);
 }
 
-/// FNV-1a of a byte stream.
-fn digest(bytes: impl Iterator<Item = u8>) -> u64 {
-    bytes.fold(0xcbf2_9ce4_8422_2325, |h, b| {
-        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
-    })
-}
-
 #[test]
 fn output_is_pinned_to_the_generator_version() {
     // If this fails, the filter-adapted output changed: bump `GENERATOR_VERSION` (so caches
@@ -374,13 +369,8 @@ fn output_is_pinned_to_the_generator_version() {
     )
     .unwrap();
     let digests = [
-        digest(scalar.ranks().iter().flat_map(|r| r.to_le_bytes())),
-        digest(
-            vector
-                .values()
-                .iter()
-                .flat_map(|v| v.to_bits().to_le_bytes()),
-        ),
+        common::fnv1a(scalar.ranks().iter().flat_map(|r| r.to_le_bytes())),
+        common::value_digest(&vector),
     ];
     let expected = pinned
         .iter()

@@ -2,6 +2,8 @@
 //! spectra, spec validation and the pinned output. The swap optimiser's exact energies and
 //! extreme parameters are checked by its unit tests.
 
+mod common;
+
 use std::sync::Arc;
 
 use stbn_gen::analysis::{Field, spatial_low_band, temporal_low_band};
@@ -324,17 +326,6 @@ fn volume_accessors_agree() {
     assert_eq!(volume.pdf(), None);
 }
 
-/// FNV-1a over the values' little-endian bits: a digest stable across Rust releases.
-fn value_digest(volume: &VectorVolume) -> u64 {
-    volume
-        .values()
-        .iter()
-        .flat_map(|v| v.to_bits().to_le_bytes())
-        .fold(0xcbf2_9ce4_8422_2325, |h, b| {
-            (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
-        })
-}
-
 #[test]
 fn vector_output_is_pinned_to_the_generator_version() {
     // If this fails, the vector generator's output changed: bump `GENERATOR_VERSION` (so caches
@@ -350,7 +341,7 @@ fn vector_output_is_pinned_to_the_generator_version() {
     ];
     let digests = [SampleSpace::Vec { dims: 2 }, SampleSpace::UnitVec3].map(|space| {
         let spec = VectorSpec::new(16, 16, 8, 2026, space).with_swaps_per_pixel(4.0);
-        value_digest(&generate_with_trace(&spec).unwrap().0)
+        common::value_digest(&generate_with_trace(&spec).unwrap().0)
     });
     let expected = pinned
         .iter()
