@@ -907,11 +907,17 @@ impl Optimizer {
                     // changes nothing), the first of equals.
                     (Region::Distance(columns), Energy::Distance { dims, .. }) => {
                         let a = local(tile, i as usize);
-                        let level = |c: usize, p| i32::from(columns.get(c, p, z));
+                        let mut own = [0i32; MAX_CHANNELS];
+                        for (c, level) in own.iter_mut().enumerate().take(*dims) {
+                            *level = i32::from(columns.get(c, a, z));
+                        }
                         nearest_partner(&mut rng, i, n as u32, self.partner_candidates, |j| {
                             let b = local(tile, j as usize);
-                            let d: i32 =
-                                (0..*dims).map(|c| (level(c, a) - level(c, b)).abs()).sum();
+                            let d: i32 = own[..*dims]
+                                .iter()
+                                .enumerate()
+                                .map(|(c, &level)| (level - i32::from(columns.get(c, b, z))).abs())
+                                .sum();
                             if d > 0 { d } else { i32::MAX }
                         })
                     }
