@@ -42,11 +42,11 @@ pub(crate) fn exp_neg(x: f64) -> f64 {
 /// to `x = 86`); results below `e^−87` come out as `e^−87` (≈ 1.6·10⁻³⁸). As `2^−y`, `y = x log₂e`
 /// rounded to single precision: `2^−k` from the bits of the nearest integer `k`, times a Taylor
 /// polynomial of degree 5 for `2^f`, `f = k − y` in `[−½, ½]` (truncation `(½ ln 2)⁶/6! =
-/// 2.4·10⁻⁶`, 3.4·10⁻⁶ relative at `f = −½`). One multiplication reduces the argument and degree
-/// 5 suffices, where a series of `e^t` after a two-constant `ln 2` reduction needs degree 7 for
-/// 2·10⁻⁷; with two Newton steps
-/// for the cube root instead of three, the Vec2 value factor takes 1.4 instead of 2.2 ns per
-/// entry (an AVX2 loop over 128 entries; BENCHMARKS.md, "Design decisions").
+/// 2.4·10⁻⁶`, 3.4·10⁻⁶ relative at `f = −½`). One multiplication reduces the argument and
+/// degree 5 suffices, where a series of `e^t` after a two-constant `ln 2` reduction needs degree
+/// 7 for 2·10⁻⁷; with two Newton steps for the cube root instead of three, the Vec2 value factor
+/// takes 1.4 instead of 2.2 ns per entry (an AVX2 loop over 128 entries; BENCHMARKS.md, "Design
+/// decisions").
 #[inline(always)]
 pub(crate) fn exp_neg_f32(x: f32) -> f32 {
     // 1.5 · 2^23: adding it rounds to an integer held in the low mantissa bits.

@@ -526,9 +526,10 @@ pub(crate) fn generate_scalar(
 }
 
 /// The screening threshold of distance proposals, in units of `len · Σ g` (see [`optimizer`]).
-/// Measured at 128×128×64 from STBN with uniform partners (BENCHMARKS.md): thresholds from 3·10⁻⁴ to 3·10⁻³, or no
-/// screening at all, reach the same filtered error within 3·10⁻⁵ after 32 passes; 10⁻³ and
-/// 3·10⁻⁴ cost about the same time, 3·10⁻³ a third more, no screening five times as much.
+/// Measured at 128×128×64 from STBN with uniform partners (BENCHMARKS.md): thresholds from
+/// 3·10⁻⁴ to 3·10⁻³, or no screening at all, reach the same filtered error within 3·10⁻⁵ after 32
+/// passes; 10⁻³ and 3·10⁻⁴ cost about the same time, 3·10⁻³ a third more, no screening five times
+/// as much.
 const SCREEN: f64 = 1e-3;
 
 /// Whether the space's components lie in `[0, 1)` (else in `[−1, 1]`).

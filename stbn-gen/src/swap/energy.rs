@@ -40,9 +40,9 @@ fn distance_power<const D: usize>(s: f32) -> f32 {
 /// This function *is* the energy's value term: every energy, cached or recomputed, goes through
 /// it, so they agree to the rounding of the `f64` sums. Single precision evaluates 8 lanes per
 /// AVX2 instruction instead of 4; together with a shorter polynomial (version 4's degree 7) that
-/// made the optimiser about 1.4× faster than an `f64` version with a degree-9 polynomial (64×64×32 Vec2, 16 swaps
-/// per pixel, AVX2, two runs each: 0.61–0.64 s against 0.88–0.89 s; `f64` with [`exp_neg`]'s
-/// degree 12 and four Newton steps took 1.06 s).
+/// made the optimiser about 1.4× faster than an `f64` version with a degree-9 polynomial
+/// (64×64×32 Vec2, 16 swaps per pixel, AVX2, two runs each: 0.61–0.64 s against 0.88–0.89 s;
+/// `f64` with [`exp_neg`]'s degree 12 and four Newton steps took 1.06 s).
 #[inline(always)]
 pub(super) fn value_factor<const D: usize>(s: f32, inv_sigma_value_sq: f32) -> f32 {
     exp_neg_f32(distance_power::<D>(s) * inv_sigma_value_sq)
