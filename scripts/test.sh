@@ -52,6 +52,15 @@ step "no_std check (a #![no_std] staticlib with its own panic handler links the 
 cargo build --quiet --manifest-path tests/nostd-check/Cargo.toml
 cargo clippy --quiet --manifest-path tests/nostd-check/Cargo.toml -- -D warnings
 
+step "stbn-runtime on other architectures (the AArch64 square root, the software one on wasm32)"
+# Their code paths compile only for those targets; checking needs their standard library alone.
+for target in aarch64-unknown-linux-gnu wasm32-unknown-unknown; do
+    if ! rustup target list --installed | grep -qx "$target"; then
+        quietly rustup target add "$target"
+    fi
+    cargo clippy --quiet -p stbn-runtime --target "$target" -- -D warnings
+done
+
 step "MSRV (each crate builds with the oldest compiler its rust-version declares)"
 # The published generator crates take the workspace's rust-version; stbn-runtime declares its
 # own, for its default and `alloc` features (the `wgpu` feature needs what wgpu declares: 1.87 for

@@ -166,7 +166,8 @@
 //! # Ok::<(), stbn_runtime::Error>(())
 //! ```
 #![no_std]
-#![forbid(unsafe_code)]
+// `unsafe` only in `sqrt.rs`: the square-root instructions, behind `#[allow(unsafe_code)]`.
+#![deny(unsafe_code)]
 #![warn(missing_docs)]
 
 #[cfg(feature = "alloc")]
@@ -180,6 +181,7 @@ mod header;
 mod offset;
 mod packed;
 mod sampler;
+mod sqrt;
 mod vector;
 
 #[doc(hidden)]

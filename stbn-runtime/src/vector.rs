@@ -7,6 +7,7 @@ use core::marker::PhantomData;
 use glam::{Vec2, Vec3, Vec4};
 
 use crate::sampler::decode_elements;
+use crate::sqrt::sqrt;
 use crate::{Encoding, MaskHeader, OffsetStbn, SampleOffset, Space, Stbn, ValueMap};
 
 /// One vector read from a mask: the value and the density it was drawn with.
@@ -48,24 +49,6 @@ fn octahedral_unfold(ex: f32, ey: f32) -> [f32; 4] {
     let t = (-z).max(0.0);
     // |x| + |y| + |z| >= 1 whatever the input, so the squared length is at least 1/3.
     [(ax - t).copysign(ex), (ay - t).copysign(ey), z, 0.0]
-}
-
-/// `1 / sqrt(d)` for a normal `d > 0`, within 1 ulp (1.2e-7 relative): an integer
-/// estimate (relative error below 3.5%) refined by a Halley step (cubic) and a Newton step.
-///
-/// Plain `f32` arithmetic rather than a square root: `no_std` on the crate's MSRV has no
-/// `sqrt` that LLVM can vectorise without `unsafe`, and this lets the row fills normalise 4
-/// voxels per SSE2 instruction on any x86-64.
-/// `d = 0` gives a large finite value, so `0 * inverse_sqrt(0)` is 0; a negative or NaN `d`
-/// (only from a hand-made F32 blob) gives an unspecified value without panicking.
-#[inline(always)]
-fn inverse_sqrt(d: f32) -> f32 {
-    let y = f32::from_bits(0x5F37_5A86u32.wrapping_sub(d.to_bits() >> 1));
-    let t = d * y * y;
-    let y = y * (1.875 - t * (1.25 - 0.375 * t));
-    // The last step adds its small correction to `y` rather than scaling it, so the final
-    // rounding is that of the sum: exact for `d = 1` (the pole of every direction space).
-    y + y * (0.5 - 0.5 * d * y * y)
 }
 
 /// Encodes a unit vector `n` as the octahedral coordinates in `[-1, 1]²` that
@@ -363,11 +346,12 @@ fn squared_length(v: [f32; 4]) -> f32 {
     v[0] * v[0] + v[1] * v[1] + v[2] * v[2] + v[3] * v[3]
 }
 
-/// [`unit_scale`] from the squared length `d`; the fills run it as a pass of its own, whose
-/// short loop body keeps more voxels in flight.
+/// [`unit_scale`] from the squared length `d`: `1 / sqrt(d)`, each step correctly rounded (so
+/// within 1 ulp, and exactly 1 for `d = 1`, the pole of every direction space), the same bits
+/// on every target (see [`sqrt`]).
 #[inline(always)]
 fn scale_of_squared_length(d: f32) -> f32 {
-    if d > 0.0 { inverse_sqrt(d) } else { 1.0 }
+    if d > 0.0 { 1.0 / sqrt(d) } else { 1.0 }
 }
 
 /// The value of a voxel whose `C` value channels hold the stored unit values `u`: what every
@@ -383,7 +367,7 @@ fn voxel_value<T: ValueTransform, const C: usize>(u: [f32; 4], plan: &VectorPlan
     }
 }
 
-/// Voxels a row fill decodes per block, in stack buffers of `9 * FILL_BLOCK` `f32`s (2.3 KB).
+/// Voxels a row fill decodes per block, in stack buffers of `8 * FILL_BLOCK` `f32`s (2 KB).
 const FILL_BLOCK: usize = 64;
 
 impl Stbn<'_> {
@@ -603,9 +587,9 @@ impl<V: VectorOutput> PlanVisitor for VoxelVisitor<'_, '_, V> {
 }
 
 /// Decodes a run of contiguous voxels, the first with channel-0 element index `first`, into
-/// `out`, block by block in separate passes: one vectorised element conversion, then the
-/// steps of [`voxel_value`] each over the whole block (short dependency chains, so that many
-/// voxels are in flight), then the outputs.
+/// `out`, block by block in passes that LLVM vectorises: the element conversion, the values
+/// before normalisation, then (for unit values) their [`unit_scale`]s with the outputs: the
+/// steps of [`voxel_value`], so the same bits.
 struct RunVisitor<'s, 'a, 'o, V> {
     mask: &'s Stbn<'a>,
     first: usize,
@@ -620,12 +604,11 @@ impl<V: VectorOutput> PlanVisitor for RunVisitor<'_, '_, '_, V> {
         let encoding = mask.encoding();
         let bpe = encoding.bytes_per_element();
         let mut elements = [0.0f32; 4 * FILL_BLOCK];
-        // The block's values, one array per component, and their unit scales.
+        // The block's values before normalisation, one array per component.
         let mut xs = [0.0f32; FILL_BLOCK];
         let mut ys = [0.0f32; FILL_BLOCK];
         let mut zs = [0.0f32; FILL_BLOCK];
         let mut ws = [0.0f32; FILL_BLOCK];
-        let mut scales = [1.0f32; FILL_BLOCK];
         for (k, block) in self.out.chunks_mut(FILL_BLOCK).enumerate() {
             let first = self.first + k * FILL_BLOCK * S;
             let elements = &mut elements[..block.len() * S];
@@ -654,30 +637,25 @@ impl<V: VectorOutput> PlanVisitor for RunVisitor<'_, '_, '_, V> {
             {
                 let mut u = [0.0; 4];
                 u[..C].copy_from_slice(&e[..C]);
-                [*x, *y, *z, *w] = T::value::<C>(u, plan);
+                let v = T::value::<C>(u, plan);
+                [*x, *y, *z] = [v[0], v[1], v[2]];
+                // Below 4 value channels the fourth component is 0 (octahedral values have 2
+                // channels and 3 components): neither stored nor read.
+                if C == 4 {
+                    *w = v[3];
+                }
             }
-            for ((((scale, x), y), z), w) in scales[..block.len()]
+            for (i, ((((o, x), y), z), w)) in block
                 .iter_mut()
                 .zip(&xs)
                 .zip(&ys)
                 .zip(&zs)
                 .zip(&ws)
-            {
-                *scale = squared_length([*x, *y, *z, *w]);
-            }
-            for scale in &mut scales[..block.len()] {
-                *scale = scale_of_squared_length(*scale);
-            }
-            for (i, (((((o, x), y), z), w), scale)) in block
-                .iter_mut()
-                .zip(&xs)
-                .zip(&ys)
-                .zip(&zs)
-                .zip(&ws)
-                .zip(&scales)
                 .enumerate()
             {
-                let value = [*x, *y, *z, *w].map(|c| c * scale);
+                let v = [*x, *y, *z, if C == 4 { *w } else { 0.0 }];
+                let scale = unit_scale(v);
+                let value = v.map(|c| c * scale);
                 *o = mask.vector_output::<V, S>(value, first + i * S);
             }
         }
@@ -785,18 +763,21 @@ mod tests {
     }
 
     #[test]
-    fn inverse_sqrt_is_within_one_ulp_over_the_normalised_range() {
+    fn unit_scale_is_the_rounded_reciprocal_of_the_rounded_root() {
         // Every squared length a Unorm or F32 unit-vector mask can produce lies in [2^-48, 4]
         // (or is 0, which the normalisation skips); f32 patterns in that range, in steps.
         let (lo, hi) = ((-48.0f32).exp2().to_bits(), 4.0f32.to_bits());
         let mut worst = 0.0f64;
         for bits in (lo..=hi).step_by(1021).chain([hi]) {
             let d = f32::from_bits(bits);
+            let scale = scale_of_squared_length(d);
+            assert_eq!(scale, 1.0 / (f64::from(d).sqrt() as f32), "{d:e}");
             let exact = 1.0 / f64::from(d).sqrt();
-            worst = worst.max((f64::from(inverse_sqrt(d)) - exact).abs() / exact);
+            worst = worst.max((f64::from(scale) - exact).abs() / exact);
         }
         assert!(worst < 1.2e-7, "{worst}");
-        assert_eq!(0.0 * inverse_sqrt(0.0), 0.0);
+        assert_eq!(scale_of_squared_length(1.0), 1.0);
+        assert_eq!(scale_of_squared_length(0.0), 1.0);
     }
 
     #[test]
