@@ -55,7 +55,7 @@
 //! between similar values (among uniform proposals late in a run, the 5% between close values make
 //! about three quarters of the accepted swaps), so proposals go to the nearest value of a few
 //! candidates, in tiles wide enough to hold close values. In 128 passes that reaches a lower
-//! filtered error than uniform partners reach in 1024. BENCHMARKS.md ("Vector masks") has the
+//! filtered error than uniform partners reach in 1024. BENCHMARKS.md ("Design decisions") has the
 //! figures and the alternatives measured against it.
 //!
 //! # Assignment passes
