@@ -3,16 +3,22 @@
 //!
 //! A pass cuts every frame into rectangular tiles ([`Layout::tiles`]) at a seeded random offset,
 //! about [`Layout::target`] pixels wide and never narrower than twice the optimiser's reach. A
-//! tile covers its columns in every frame. Tiles are coloured in a 2 × 2 pattern and the four
-//! colours run one after the other; the tiles of one colour run in parallel
+//! tile covers its columns in every frame, or, where the layout asks for it
+//! ([`Layout::target_frames`]), in a run of about that many frames, never fewer than twice the
+//! reach along time. Tiles are coloured in a 2 × 2 pattern (2 × 2 × 2 when frames are cut too)
+//! and the colours run one after the other; the tiles of one colour run in parallel
 //! ([`run_pass`]), each on private copies of its *region* (the tile widened by the reach on
-//! every side, all frames), and their outcomes are written back in tile order after the colour.
-//! Each tile draws from its own ChaCha8 stream keyed by (seed, pass, tile).
+//! every side), and their outcomes are written back in tile order after the colour. Each tile
+//! draws from its own ChaCha8 stream keyed by (seed, pass, tile).
 //!
 //! Why this is deterministic: two tiles of one colour are separated by a whole tile, at least
-//! twice the reach wide, so their regions never overlap, and a tile's moves read and write only
-//! its region. So each tile's outcome is a function of the state before its colour, and
-//! writing the outcomes back in tile order gives the same state whatever ran where.
+//! twice the reach wide, along some axis, so their regions never overlap, and a tile's moves
+//! read and write only its region. So each tile's outcome is a function of the state before its
+//! colour, and writing the outcomes back in tile order gives the same state whatever ran where.
+//!
+//! Why frames are cut: a small mask has few tiles per colour in a frame (a 64 × 64 frame in
+//! 32-pixel tiles has one), so its passes would run on one core; runs of frames multiply the
+//! tiles of a colour by half the runs, so more cores find work.
 //!
 //! Why private copies: each tile owns its region outright (`&mut`, no atomics, no `unsafe`), and
 //! a region (a few tens of kilobytes) stays in cache while its tile runs.
@@ -55,8 +61,8 @@ pub(crate) struct PassKey {
 }
 
 /// One pass: the tiles of `layout` at the pass's offset, colour by colour, the tiles of a colour
-/// in parallel, their outcomes written back in tile order. Calls `after_colour` after each of
-/// the four colours.
+/// in parallel, their outcomes written back in tile order. Calls `after_colour` after each
+/// colour (four, or eight where frames are cut).
 pub(crate) fn run_pass<O: TileOptimizer>(
     optimizer: &mut O,
     layout: &Layout,
@@ -65,7 +71,12 @@ pub(crate) fn run_pass<O: TileOptimizer>(
     after_colour: &mut dyn FnMut(&O),
 ) {
     let tiles = layout.tiles(key);
-    for colour in 0..4 {
+    let colours = if tiles.iter().any(|t| t.colour >= 4) {
+        8
+    } else {
+        4
+    };
+    for colour in 0..colours {
         let batch: Vec<&Tile> = tiles.iter().filter(|t| t.colour == colour).collect();
         let outcomes: Vec<O::Outcome> = {
             let optimizer = &*optimizer;
@@ -115,44 +126,71 @@ pub(crate) struct Layout {
     pub reach: (u32, u32),
     /// Preferred tile side in pixels.
     pub target: u32,
+    /// Frames of the volume.
+    pub depth: u32,
+    /// How far, in frames, a move at one pixel reads or writes around it.
+    pub reach_frames: u32,
+    /// Preferred frames per tile; 0: every tile covers every frame.
+    pub target_frames: u32,
     /// Where a tile spanning a whole axis starts.
     pub span_start: SpanStart,
 }
 
 impl Layout {
-    /// The tiles of the pass `key` says, row by row (`id` = `ty · nx + tx`), coloured
-    /// `(tx mod 2) + 2 (ty mod 2)`. The grid's offset is drawn from the pass's grid stream,
-    /// x first.
+    /// The tiles of the pass `key` says, run by run of frames, row by row (`id` =
+    /// `(tz · ny + ty) · nx + tx`), coloured `(tx mod 2) + 2 (ty mod 2) + 4 (tz mod 2)`. The
+    /// grid's offset is drawn from the pass's grid stream, x first, then y, then (where frames
+    /// are cut) z.
     pub(crate) fn tiles(&self, key: PassKey) -> Vec<Tile> {
-        let (w, h) = (self.width, self.height);
+        let (w, h, d) = (self.width, self.height, self.depth);
         let mut grid_rng = keyed_rng(key.seed, key.streams.grid, key.pass, 0);
         let (ox, oy) = (grid_rng.random_range(0..w), grid_rng.random_range(0..h));
         let (nx, ny) = (
             tiles_along(w, self.reach.0, self.target),
             tiles_along(h, self.reach.1, self.target),
         );
-        let mut tiles = Vec::with_capacity((nx * ny) as usize);
-        for ty in 0..ny {
-            for tx in 0..nx {
-                let x = self.axis(tx, nx, w, ox, self.reach.0);
-                let y = self.axis(ty, ny, h, oy, self.reach.1);
-                tiles.push(Tile {
-                    x0: x.start,
-                    y0: y.start,
-                    w: x.len,
-                    h: y.len,
-                    rx0: x.region_start,
-                    ry0: y.region_start,
-                    rw: x.region_len,
-                    rh: y.region_len,
-                    inset_x: x.inset,
-                    inset_y: y.inset,
-                    wrap_x: x.wraps,
-                    wrap_y: y.wraps,
-                    colour: ((tx % 2) + 2 * (ty % 2)) as u8,
-                    id: u64::from(ty) * u64::from(nx) + u64::from(tx),
-                });
-            }
+        let nz = match self.target_frames {
+            0 => 1,
+            target => tiles_along(d, self.reach_frames, target),
+        };
+        let oz = if nz > 1 {
+            grid_rng.random_range(0..d)
+        } else {
+            0
+        };
+        let mut tiles = Vec::with_capacity((nx * ny * nz) as usize);
+        for (tz, ty, tx) in
+            (0..nz).flat_map(|tz| (0..ny).flat_map(move |ty| (0..nx).map(move |tx| (tz, ty, tx))))
+        {
+            let x = self.axis(tx, nx, w, ox, self.reach.0);
+            let y = self.axis(ty, ny, h, oy, self.reach.1);
+            let z = if nz > 1 {
+                self.axis(tz, nz, d, oz, self.reach_frames)
+            } else {
+                Span::whole(d)
+            };
+            tiles.push(Tile {
+                x0: x.start,
+                y0: y.start,
+                w: x.len,
+                h: y.len,
+                rx0: x.region_start,
+                ry0: y.region_start,
+                rw: x.region_len,
+                rh: y.region_len,
+                inset_x: x.inset,
+                inset_y: y.inset,
+                wrap_x: x.wraps,
+                wrap_y: y.wraps,
+                z0: z.start,
+                d: z.len,
+                rz0: z.region_start,
+                rd: z.region_len,
+                inset_z: z.inset,
+                wrap_z: z.wraps,
+                colour: ((tx % 2) + 2 * (ty % 2) + 4 * (tz % 2)) as u8,
+                id: (u64::from(tz) * u64::from(ny) + u64::from(ty)) * u64::from(nx) + u64::from(tx),
+            });
         }
         tiles
     }
@@ -187,6 +225,20 @@ impl Layout {
     }
 }
 
+impl Span {
+    /// One tile over a whole axis of `size` pixels, from 0.
+    fn whole(size: u32) -> Span {
+        Span {
+            start: 0,
+            len: size,
+            region_start: 0,
+            region_len: size,
+            inset: 0,
+            wraps: true,
+        }
+    }
+}
+
 /// One tile along one axis.
 struct Span {
     /// The tile's first pixel.
@@ -204,8 +256,9 @@ struct Span {
 }
 
 /// One tile of a pass: columns `x0..x0 + w` and rows `y0..y0 + h` (both modulo the frame) in
-/// every frame, and its region: columns `rx0..rx0 + rw` and rows `ry0..ry0 + rh` (modulo the
-/// frame), the tile widened by the reach on each side, or the whole axis where one tile spans it.
+/// frames `z0..z0 + d` (modulo the depth), and its region: columns `rx0..rx0 + rw`, rows
+/// `ry0..ry0 + rh` and frames `rz0..rz0 + rd`, the tile widened by the reach on each side, or
+/// the whole axis where one tile spans it.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Tile {
     /// First column of the tile.
@@ -232,16 +285,30 @@ pub(crate) struct Tile {
     pub wrap_x: bool,
     /// The region spans y: offsets wrap around it.
     pub wrap_y: bool,
-    /// Colour, `0..4`: tiles of one colour run in parallel.
+    /// First frame of the tile.
+    pub z0: u32,
+    /// The tile's frames.
+    pub d: u32,
+    /// First frame of the region.
+    pub rz0: u32,
+    /// The region's frames.
+    pub rd: u32,
+    /// The tile's first frame within its region: the reach along time, or 0 where the region
+    /// spans every frame.
+    pub inset_z: u32,
+    /// The region spans every frame: offsets in time wrap around it.
+    pub wrap_z: bool,
+    /// Colour, `0..8`: tiles of one colour run in parallel.
     pub colour: u8,
     /// Index in the pass's grid, row by row: keys the tile's random stream.
     pub id: u64,
 }
 
 impl Tile {
-    /// One tile over the whole `width × height` frame, its region wrapping on both axes.
+    /// One tile over the whole `width × height × depth` volume, its region wrapping on every
+    /// axis.
     #[cfg(test)]
-    pub(crate) fn whole(width: u32, height: u32) -> Tile {
+    pub(crate) fn whole(width: u32, height: u32, depth: u32) -> Tile {
         Tile {
             x0: 0,
             y0: 0,
@@ -255,6 +322,12 @@ impl Tile {
             inset_y: 0,
             wrap_x: true,
             wrap_y: true,
+            z0: 0,
+            d: depth,
+            rz0: 0,
+            rd: depth,
+            inset_z: 0,
+            wrap_z: true,
             colour: 0,
             id: 0,
         }
@@ -275,36 +348,40 @@ impl Tile {
     /// Calls `run(volume, region, len)` for each run of `len` pixels of the region that is
     /// contiguous in a `width × height × depth` volume, in region order (frame, row, column):
     /// `volume` is the index of its first pixel in the volume (`(z · height + y) · width + x`),
-    /// `region` in the region (`(z · rh + y) · rw + x`).
+    /// `region` in the region (`(z · rh + y) · rw + x`, `z` the frame within the region).
     pub(crate) fn region_runs(&self, size: (u32, u32, u32), run: impl FnMut(usize, usize, usize)) {
         let rect = (self.rx0, self.ry0, self.rw, self.rh);
-        self.runs(rect, (0, 0), size, run);
+        self.runs(rect, (self.rz0, self.rd), (0, 0, 0), size, run);
     }
 
     /// [`Tile::region_runs`] for the tile's own pixels: `region` is the index of the run's first
     /// pixel in the region.
     pub(crate) fn tile_runs(&self, size: (u32, u32, u32), run: impl FnMut(usize, usize, usize)) {
         let rect = (self.x0, self.y0, self.w, self.h);
-        self.runs(rect, (self.inset_x, self.inset_y), size, run);
+        let inset = (self.inset_x, self.inset_y, self.inset_z);
+        self.runs(rect, (self.z0, self.d), inset, size, run);
     }
 
     /// The runs of the rectangle `rect` (first column and row, width and height) of the
-    /// volume, placed at `inset` in the region.
+    /// frames `z0..z0 + d` of the volume, placed at `inset` in the region.
     fn runs(
         &self,
         (x0, y0, w, h): (u32, u32, u32, u32),
-        (inset_x, inset_y): (u32, u32),
+        (z0, d): (u32, u32),
+        (inset_x, inset_y, inset_z): (u32, u32, u32),
         (width, height, depth): (u32, u32, u32),
         mut run: impl FnMut(usize, usize, usize),
     ) {
         let (x0, w, width) = (x0 as usize, w as usize, width as usize);
         let (rw, rh) = (self.rw as usize, self.rh as usize);
         let first = w.min(width - x0);
-        for z in 0..depth as usize {
+        for lz in 0..d as usize {
+            let z = (z0 as usize + lz) % depth as usize;
             for ly in 0..h as usize {
                 let y = (y0 as usize + ly) % height as usize;
                 let row = (z * height as usize + y) * width;
-                let local = (z * rh + ly + inset_y as usize) * rw + inset_x as usize;
+                let local =
+                    ((lz + inset_z as usize) * rh + ly + inset_y as usize) * rw + inset_x as usize;
                 run(row + x0, local, first);
                 if first < w {
                     run(row, local + first, w - first);
@@ -339,53 +416,83 @@ mod tests {
         }
     }
 
-    /// Every pixel lies in exactly one tile; a tile's region holds the tile widened by the
-    /// reach (or the whole axis); the regions of one colour's tiles are disjoint.
+    /// Every voxel lies in exactly one tile; a tile's region holds the tile widened by the
+    /// reach (or the whole axis); the regions of one colour's tiles are disjoint. With frames
+    /// whole and cut into runs.
     #[test]
-    fn tiles_cover_each_pixel_once_and_regions_of_a_colour_are_disjoint() {
+    fn tiles_cover_each_voxel_once_and_regions_of_a_colour_are_disjoint() {
+        let cases = [
+            (64, 48, 3, (4, 4), 0, 0),
+            (9, 40, 2, (2, 3), 0, 0),
+            (5, 3, 1, (1, 0), 0, 0),
+            (64, 48, 32, (4, 4), 4, 8),
+            (9, 40, 19, (2, 3), 2, 4),
+            (24, 24, 7, (3, 3), 2, 4),
+        ];
         for span_start in [SpanStart::PassOffset, SpanStart::Origin] {
-            for (width, height, reach) in [(64, 48, (4, 4)), (9, 40, (2, 3)), (5, 3, (1, 0))] {
+            for (width, height, depth, reach, reach_frames, target_frames) in cases {
                 let layout = Layout {
                     width,
                     height,
                     reach,
                     target: 16,
+                    depth,
+                    reach_frames,
+                    target_frames,
                     span_start,
                 };
+                let voxels = (width * height * depth) as usize;
+                let index = |x: u32, y: u32, z: u32| ((z * height + y) * width + x) as usize;
                 for pass in 0..6 {
                     let key = PassKey {
                         seed: 3,
                         streams: crate::rng::VECTOR,
                         pass,
                     };
-                    let mut owner = vec![0u32; (width * height) as usize];
-                    let mut region_colour = vec![[0u32; 4]; (width * height) as usize];
-                    for tile in layout.tiles(key) {
-                        for i in 0..tile.pixels() {
-                            let (lx, ly) = tile.local(i);
-                            assert!(lx < tile.rw && ly < tile.rh);
-                            let x = (tile.rx0 + lx) % width;
-                            let y = (tile.ry0 + ly) % height;
-                            assert_eq!(x, (tile.x0 + i % tile.w) % width);
-                            assert_eq!(y, (tile.y0 + i / tile.w) % height);
-                            if !tile.wrap_x {
-                                assert!(lx >= reach.0 && lx + reach.0 < tile.rw);
+                    let mut owner = vec![0u32; voxels];
+                    let mut region_colour = vec![[0u32; 8]; voxels];
+                    let tiles = layout.tiles(key);
+                    if target_frames > 0 && depth >= 4 * reach_frames {
+                        assert!(tiles.iter().any(|t| !t.wrap_z), "frames are cut");
+                    }
+                    for tile in tiles {
+                        for lz in tile.inset_z..tile.inset_z + tile.d {
+                            assert!(lz < tile.rd);
+                            if !tile.wrap_z {
+                                assert!(lz >= reach_frames && lz + reach_frames < tile.rd);
                             }
-                            if !tile.wrap_y {
-                                assert!(ly >= reach.1 && ly + reach.1 < tile.rh);
-                            }
-                            owner[(y * width + x) as usize] += 1;
-                        }
-                        for ly in 0..tile.rh {
-                            for lx in 0..tile.rw {
+                            let z = (tile.rz0 + lz) % depth;
+                            assert_eq!(z, (tile.z0 + lz - tile.inset_z) % depth);
+                            for i in 0..tile.pixels() {
+                                let (lx, ly) = tile.local(i);
+                                assert!(lx < tile.rw && ly < tile.rh);
                                 let x = (tile.rx0 + lx) % width;
                                 let y = (tile.ry0 + ly) % height;
-                                region_colour[(y * width + x) as usize][tile.colour as usize] += 1;
+                                assert_eq!(x, (tile.x0 + i % tile.w) % width);
+                                assert_eq!(y, (tile.y0 + i / tile.w) % height);
+                                if !tile.wrap_x {
+                                    assert!(lx >= reach.0 && lx + reach.0 < tile.rw);
+                                }
+                                if !tile.wrap_y {
+                                    assert!(ly >= reach.1 && ly + reach.1 < tile.rh);
+                                }
+                                owner[index(x, y, z)] += 1;
+                            }
+                        }
+                        for lz in 0..tile.rd {
+                            for ly in 0..tile.rh {
+                                for lx in 0..tile.rw {
+                                    let x = (tile.rx0 + lx) % width;
+                                    let y = (tile.ry0 + ly) % height;
+                                    let z = (tile.rz0 + lz) % depth;
+                                    region_colour[index(x, y, z)][tile.colour as usize] += 1;
+                                }
                             }
                         }
                     }
-                    assert!(owner.iter().all(|&n| n == 1), "{width}x{height} {reach:?}");
-                    assert!(region_colour.iter().flatten().all(|&n| n <= 1));
+                    let case = format!("{width}x{height}x{depth} {reach:?} {reach_frames}");
+                    assert!(owner.iter().all(|&n| n == 1), "{case}");
+                    assert!(region_colour.iter().flatten().all(|&n| n <= 1), "{case}");
                 }
             }
         }

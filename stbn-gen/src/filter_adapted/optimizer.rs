@@ -537,7 +537,7 @@ impl Optimizer {
     /// The levels of the whole volume as [`Columns`] wrapping on both axes.
     #[cfg(test)]
     fn whole_columns(&self) -> Columns {
-        let tile = Tile::whole(self.width as u32, self.height as u32);
+        let tile = Tile::whole(self.width as u32, self.height as u32, self.depth as u32);
         match self.extract(&tile).region {
             Region::Distance(columns) => columns,
             Region::Product(_) => unreachable!("distance energy"),
@@ -728,6 +728,9 @@ impl Optimizer {
             height: self.height as u32,
             reach: self.reach,
             target: Self::TILE_TARGET,
+            depth: self.depth as u32,
+            reach_frames: 0,
+            target_frames: 0,
             span_start: SpanStart::Origin,
         };
         let key = PassKey {
@@ -1064,7 +1067,7 @@ mod tests {
             y0: 5,
             rx0: 3,
             ry0: 5,
-            ..Tile::whole(24, 20)
+            ..Tile::whole(24, 20, spec.depth)
         };
         let mut portable = optimizer();
         let mut simd: Vec<Optimizer> = builds.iter().map(|_| optimizer()).collect();

@@ -169,7 +169,7 @@ impl SwapKernel {
         let mut set_values: Vec<[f32; D]> = Vec::with_capacity(k_max);
         let shortlist = ASSIGNMENT_SHORTLIST.min(n as usize);
         let moves = (n as usize).div_ceil(k_max);
-        for z in 0..self.depth {
+        for z in tile.inset_z..tile.inset_z + tile.d {
             let base = z as usize * slice;
             order.shuffle(&mut rng);
             tile_values.clear();

@@ -195,6 +195,15 @@ impl SwapKernel {
         }
     }
 
+    /// Largest `|dz|` of a temporal tap, in frames.
+    pub fn reach_frames(&self) -> u32 {
+        self.temporal
+            .iter()
+            .map(|t| t.0.unsigned_abs())
+            .max()
+            .unwrap_or(0)
+    }
+
     /// Largest `|dx|` and `|dy|` of a spatial tap, in pixels.
     pub fn reach(&self) -> (u32, u32) {
         (
@@ -258,7 +267,7 @@ impl SwapKernel {
         let (w, h) = (self.width as i64, self.height as i64);
         let slice = self.slice_pixels();
         let value = |i: usize| -> [f32; D] { std::array::from_fn(|c| values[i * D + c]) };
-        let steps = self.steps(self.width, self.height);
+        let steps = self.steps(self.size(), true);
         let taps = self.temporal.len();
         let mut energies = vec![0.0; slice * self.depth as usize];
         energies

@@ -42,11 +42,13 @@
 //! # Schedule
 //!
 //! A *pass* proposes, in every slice, one swap per pixel. Slices are cut into tiles about
-//! [`TILE_TARGET`] pixels wide (never narrower than twice the kernel's reach) at a seeded random
-//! offset per pass, and the tiles run on the crate's tile schedule: coloured 2 × 2, the tiles of
-//! one colour in parallel, each on a private copy of its region (the tile widened by the reach,
-//! every slice) written back after the colour, each drawing from its own ChaCha8 stream keyed by
-//! (seed, pass, tile). The result is the same for any number of threads (tested). In a tile,
+//! [`TILE_TARGET`] pixels wide (never narrower than twice the kernel's reach), and the frames
+//! into runs of about [`TILE_FRAMES`] (never fewer than twice the temporal reach; all frames
+//! when the mask is too short for two runs), at a seeded random offset per pass, and the tiles
+//! run on the crate's tile schedule: coloured 2 × 2 × 2, the tiles of one colour in parallel,
+//! each on a private copy of its region (the tile widened by the reach on every axis) written
+//! back after the colour, each drawing from its own ChaCha8 stream keyed by (seed, pass,
+//! tile). The result is the same for any number of threads (tested). In a tile,
 //! pixels propose in a seeded random order; a pixel draws a few other pixels of its tile
 //! uniformly (with replacement; one in the first passes, up to [`PARTNER_CANDIDATES`] later, see
 //! [`partner_candidates`]) and proposes a swap with the one whose value is nearest its own.
@@ -134,6 +136,11 @@ pub struct SwapConfig {
 /// 64 × 64, enough for the two cores here.
 pub const TILE_TARGET: u32 = 16;
 
+/// Preferred frames per tile of both moves (never fewer than twice the reach along time): 8
+/// cuts a 32-frame mask into four runs, two per colour, so even a 64 × 64 × 32 mask's
+/// assignment passes (one 32-pixel tile per colour in a frame) keep two cores busy.
+pub const TILE_FRAMES: u32 = 8;
+
 /// Candidates a proposing pixel draws from its tile once the optimiser is under way; it proposes
 /// the one whose value is nearest its own ([module docs](self)). Pass `p` draws
 /// `min(1 + p / 2, PARTNER_CANDIDATES)` ([`partner_candidates`]): a uniform partner first.
@@ -218,7 +225,7 @@ impl SwapOptimizer {
         let energy = 0.5 * per_slice.iter().sum::<f64>();
         SwapOptimizer {
             state: Region {
-                steps: kernel.steps(kernel.width, kernel.height),
+                steps: kernel.steps(kernel.size(), true),
                 values,
                 energy: pixel_energy,
             },
@@ -387,6 +394,9 @@ impl SwapOptimizer {
             height: self.kernel.height,
             reach: self.kernel.reach(),
             target: tile_target,
+            depth: self.kernel.depth,
+            reach_frames: self.kernel.reach_frames(),
+            target_frames: TILE_FRAMES,
             span_start: SpanStart::PassOffset,
         };
         let key = PassKey {

@@ -224,7 +224,7 @@ impl SwapKernel {
         let pixel = |i: u32| tile.local(i);
         let in_slice = region_indices(tile);
         let slice = (tile.rw * tile.rh) as usize;
-        for z in 0..self.depth {
+        for z in tile.inset_z..tile.inset_z + tile.d {
             let base = z as usize * slice;
             order.shuffle(&mut rng);
             for &i in &order[..count] {

@@ -6,7 +6,7 @@ use crate::schedule::Tile;
 use crate::torus::{canonical, wrap};
 
 /// Index steps from a pixel to its neighbours in a block of pixels: `width × height` per slice,
-/// every slice (the volume, or a tile's region).
+/// every slice of the volume or a tile's region.
 pub(super) struct Steps {
     /// Pixels per row of the block.
     pub(super) width: u32,
@@ -55,7 +55,7 @@ impl Region {
     /// A private copy of `tile`'s region of this whole-volume state.
     pub(super) fn tile_copy(&self, kernel: &SwapKernel, tile: &Tile) -> Region {
         let dims = kernel.dims;
-        let pixels = (tile.rw * tile.rh * kernel.depth) as usize;
+        let pixels = (tile.rw * tile.rh * tile.rd) as usize;
         let mut values = Vec::with_capacity(pixels * dims);
         let mut energy = Vec::with_capacity(pixels);
         tile.region_runs(kernel.size(), |from, _, len| {
@@ -63,7 +63,7 @@ impl Region {
             energy.extend_from_slice(&self.energy[from..from + len]);
         });
         Region {
-            steps: kernel.steps(tile.rw, tile.rh),
+            steps: kernel.steps((tile.rw, tile.rh, tile.rd), tile.wrap_z),
             values,
             energy,
         }
@@ -86,9 +86,10 @@ impl Region {
 
 impl SwapKernel {
     /// The index steps to every tap's neighbour in a block of `width × height` pixels per slice
-    /// and the kernel's depth.
-    pub(super) fn steps(&self, width: u32, height: u32) -> Steps {
-        let depth = i64::from(self.depth);
+    /// and `depth` slices: the volume's depth, wrapping (`wraps`), or a tile's run of frames
+    /// widened by the reach along time, whose tile frames have every temporal neighbour inside.
+    pub(super) fn steps(&self, (width, height, depth): (u32, u32, u32), wraps: bool) -> Steps {
+        let depth = i64::from(depth);
         let slice = width as isize * height as isize;
         Steps {
             width,
@@ -101,7 +102,9 @@ impl SwapKernel {
             temporal: (0..depth)
                 .flat_map(|z| {
                     self.temporal.iter().map(move |&(dz, _)| {
-                        ((z + i64::from(dz)).rem_euclid(depth) - z) as isize * slice
+                        let to = z + i64::from(dz);
+                        let to = if wraps { to.rem_euclid(depth) } else { to };
+                        (to - z) as isize * slice
                     })
                 })
                 .collect(),
@@ -269,7 +272,7 @@ mod tests {
         use crate::SampleSpace;
         use crate::rng::VECTOR;
         use crate::schedule::{Layout, PassKey, SpanStart};
-        for (w, h, d) in [(40, 36, 3), (20, 9, 2), (7, 5, 2)] {
+        for (w, h, d) in [(40, 36, 3), (20, 9, 2), (7, 5, 2), (20, 18, 19)] {
             let spec = VectorSpec::new(w, h, d, 3, SampleSpace::Vec { dims: 2 });
             let start =
                 crate::generate_vector(&spec.clone().unoptimised(), crate::Observer::default())
@@ -278,12 +281,20 @@ mod tests {
                     .to_vec();
             let mut o = SwapOptimizer::new(&spec, start.clone());
             let k = &o.kernel;
-            for (target, span_start) in [(8, SpanStart::PassOffset), (16, SpanStart::Origin)] {
+            let cases = [
+                (8, 0, SpanStart::PassOffset),
+                (16, 0, SpanStart::Origin),
+                (8, 8, SpanStart::PassOffset),
+            ];
+            for (target, target_frames, span_start) in cases {
                 let layout = Layout {
                     width: w,
                     height: h,
                     reach: k.reach(),
                     target,
+                    depth: d,
+                    reach_frames: k.reach_frames(),
+                    target_frames,
                     span_start,
                 };
                 for pass in 0..3 {
@@ -292,7 +303,11 @@ mod tests {
                         streams: VECTOR,
                         pass,
                     };
-                    for tile in layout.tiles(key) {
+                    let tiles = layout.tiles(key);
+                    if target_frames > 0 && d >= 4 * k.reach_frames() {
+                        assert!(tiles.iter().any(|t| !t.wrap_z), "frames are cut");
+                    }
+                    for tile in tiles {
                         let copy = o.state.tile_copy(k, &tile);
                         // Region index to volume index.
                         let to_volume = |r: usize| {
@@ -300,10 +315,12 @@ mod tests {
                             let (z, y, x) = (r / (rw * rh), r / rw % rh, r % rw);
                             let gx = (tile.rx0 as usize + x) % w as usize;
                             let gy = (tile.ry0 as usize + y) % h as usize;
-                            (z * h as usize + gy) * w as usize + gx
+                            let gz = (tile.rz0 as usize + z) % d as usize;
+                            (gz * h as usize + gy) * w as usize + gx
                         };
                         let global = |(x, y): (u32, u32)| ((tile.rx0 + x) % w, (tile.ry0 + y) % h);
-                        for z in 0..d {
+                        for z in tile.inset_z..tile.inset_z + tile.d {
+                            let gz = (tile.rz0 + z) % d;
                             for i in 0..tile.pixels() {
                                 let local = tile.local(i);
                                 let centre = copy.index(local, z);
@@ -318,12 +335,12 @@ mod tests {
                                 let mut expected = Vec::new();
                                 k.for_each_neighbour(
                                     &o.state.steps,
-                                    (g.0, g.1, z),
-                                    o.state.index(g, z),
+                                    (g.0, g.1, gz),
+                                    o.state.index(g, gz),
                                     |t, n| expected.push((t, n)),
                                 );
                                 assert_eq!(seen, expected, "{w}x{h}x{d} {tile:?} pixel {i}");
-                                assert_eq!(to_volume(centre), o.state.index(g, z));
+                                assert_eq!(to_volume(centre), o.state.index(g, gz));
                                 for j in 0..tile.pixels() {
                                     let other = tile.local(j);
                                     assert_eq!(

@@ -203,7 +203,7 @@ mod tests {
                 y0: 5,
                 rx0: 3,
                 ry0: 5,
-                ..Tile::whole(16, 12)
+                ..Tile::whole(16, 12, 6)
             };
             let mut portable = SwapOptimizer::new(&spec, start.clone());
             let mut simd: Vec<SwapOptimizer> = builds
