@@ -117,9 +117,9 @@ fn ambient_occlusion() {
     };
     let scene = AmbientOcclusion::new(IMAGE, IMAGE, Heightfield::town(64, 1), params);
     let ratios = ratios(&scene, NoiseKind::StbnVectors, NoiseKind::WhiteVectors);
-    // Measured: 0.710, 0.669, 0.643, 0.575 (GENERATOR_VERSION 5: 64 swaps and 12 assignment
-    // passes per pixel; version 4, the same budget with a more exact value factor, measured
-    // 0.704, 0.676, 0.684, 0.637; version 3, 128 swaps, 0.703, 0.666, 0.697, 0.622; version 1,
-    // with 16 swaps per pixel and uniform partners, 0.752, 0.725, 0.666, 0.684).
-    assert_at_most(scene.name(), &ratios, [0.72, 0.67, 0.65, 0.58]);
+    // Measured: 0.687, 0.657, 0.635, 0.617 (GENERATOR_VERSION 7, default budget). The ratios
+    // vary with the seed more than between recent versions: over seeds 1–5 their means are
+    // 0.704, 0.661, 0.629, 0.618 (blurred, mean: 0.580–0.673); version 6 measured 0.716,
+    // 0.673, 0.636, 0.606 (0.573–0.643).
+    assert_at_most(scene.name(), &ratios, [0.69, 0.66, 0.64, 0.62]);
 }
