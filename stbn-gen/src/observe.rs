@@ -83,8 +83,8 @@ impl fmt::Debug for Observer<'_> {
 ///   [`GoldenRatio2D`](crate::BaselineKind::GoldenRatio2D) and
 ///   [`RandomShift2D`](crate::BaselineKind::RandomShift2D) advance `depth` pixels per pixel of
 ///   their slice.
-/// - [`generate_vector`](crate::generate_vector): quarter passes (a pass sweeps four tile
-///   colours), of `4 · (⌈swaps_per_pixel⌉ + assignment_passes)`; a multiple of 4 ends a pass.
+/// - [`generate_vector`](crate::generate_vector): quarter passes (a quarter of a pass's tile
+///   colours each), of `4 · (⌈swaps_per_pixel⌉ + assignment_passes)`; a multiple of 4 ends a pass.
 /// - [`generate_filter_adapted`](crate::generate_filter_adapted) and
 ///   [`generate_filter_adapted_vector`](crate::generate_filter_adapted_vector): passes, of
 ///   `⌈swaps_per_pixel⌉`.

@@ -61,8 +61,9 @@ pub(crate) struct PassKey {
 }
 
 /// One pass: the tiles of `layout` at the pass's offset, colour by colour, the tiles of a colour
-/// in parallel, their outcomes written back in tile order. Calls `after_colour` after each
-/// colour (four, or eight where frames are cut).
+/// in parallel, their outcomes written back in tile order. Calls `after_colour` four times, after
+/// each quarter of the colours (one colour, or two where frames are cut), so progress counts
+/// quarter passes either way.
 pub(crate) fn run_pass<O: TileOptimizer>(
     optimizer: &mut O,
     layout: &Layout,
@@ -76,6 +77,7 @@ pub(crate) fn run_pass<O: TileOptimizer>(
     } else {
         4
     };
+    let per_quarter = colours / 4;
     for colour in 0..colours {
         let batch: Vec<&Tile> = tiles.iter().filter(|t| t.colour == colour).collect();
         let outcomes: Vec<O::Outcome> = {
@@ -91,7 +93,9 @@ pub(crate) fn run_pass<O: TileOptimizer>(
         for (tile, outcome) in batch.into_iter().zip(outcomes) {
             optimizer.write_back(tile, outcome);
         }
-        after_colour(optimizer);
+        if (colour + 1) % per_quarter == 0 {
+            after_colour(optimizer);
+        }
     }
 }
 

@@ -400,8 +400,8 @@ impl VectorVolume {
     }
 }
 
-/// The vector mask `spec` describes ([`crate::generate_vector`]), reporting quarter passes (one
-/// tile colour each) to `observer` and handing it the energy before the first pass and after
+/// The vector mask `spec` describes ([`crate::generate_vector`]), reporting quarter passes (a
+/// quarter of the tile colours each) to `observer` and handing it the energy before the first pass and after
 /// each.
 pub(crate) fn generate(
     spec: &VectorSpec,
@@ -419,7 +419,7 @@ pub(crate) fn generate(
         }],
     };
     // ⌈swaps_per_pixel⌉ swap passes (the last one partial), then the assignment passes, each
-    // sweeping four tile colours.
+    // reported in quarters.
     let swap_passes = spec.swaps_per_pixel.ceil() as u64;
     let passes = swap_passes + u64::from(spec.assignment_passes);
     let quarters = 4 * passes;

@@ -347,19 +347,23 @@ fn vector_output_is_pinned_to_the_generator_version() {
 
 #[test]
 fn progress_counts_quarter_passes_and_ends_at_its_total() {
-    let spec = VectorSpec::new(12, 8, 4, 3, SampleSpace::UnitVec2)
-        .with_swaps_per_pixel(2.5)
-        .with_assignment_passes(2);
-    let mut reports = Vec::new();
-    let mut progress = |p: stbn_gen::Progress| reports.push(p);
-    let observer = Observer::default().with_progress(&mut progress);
-    let volume = generate_vector(&spec, observer).unwrap();
-    // ⌈2.5⌉ swap passes and 2 assignment passes, four tile colours each.
-    let total = 4 * (3 + 2);
-    assert!(reports.iter().all(|p| p.total == total), "{reports:?}");
-    assert_eq!(reports.first().map(|p| p.done), Some(0));
-    assert_eq!(reports.last().map(|p| p.done), Some(total));
-    assert!(reports.windows(2).all(|pair| pair[0].done <= pair[1].done));
-    // Observing changes nothing.
-    assert_eq!(volume, generate_vector(&spec, Observer::default()).unwrap());
+    // Frames whole (four colours per pass) and cut into runs (eight).
+    for depth in [4, 16] {
+        let spec = VectorSpec::new(12, 8, depth, 3, SampleSpace::UnitVec2)
+            .with_swaps_per_pixel(2.5)
+            .with_assignment_passes(2);
+        let mut reports = Vec::new();
+        let mut progress = |p: stbn_gen::Progress| reports.push(p);
+        let observer = Observer::default().with_progress(&mut progress);
+        let volume = generate_vector(&spec, observer).unwrap();
+        // ⌈2.5⌉ swap passes and 2 assignment passes, four quarters each.
+        let total = 4 * (3 + 2);
+        assert_eq!(reports.len(), total as usize + 1, "{reports:?}");
+        assert!(reports.iter().all(|p| p.total == total), "{reports:?}");
+        assert_eq!(reports.first().map(|p| p.done), Some(0));
+        assert_eq!(reports.last().map(|p| p.done), Some(total));
+        assert!(reports.windows(2).all(|pair| pair[0].done < pair[1].done));
+        // Observing changes nothing.
+        assert_eq!(volume, generate_vector(&spec, Observer::default()).unwrap());
+    }
 }

@@ -352,8 +352,8 @@ impl SwapOptimizer {
 
     /// One pass ([module docs](self)): every pixel of every slice proposes one swap, or, with
     /// `fraction < 1`, the first `round(fraction · n)` pixels of each tile's random order do.
-    /// Calls `after_colour` after each of the four colour phases. Returns the totals after the
-    /// pass.
+    /// Calls `after_colour` after each quarter of the pass's colour phases. Returns the totals
+    /// after the pass.
     pub fn run_pass(&mut self, fraction: f64, after_colour: &mut dyn FnMut(&Self)) -> TracePoint {
         self.run_pass_with(fraction, 0, TILE_TARGET, after_colour)
     }
@@ -368,7 +368,7 @@ impl SwapOptimizer {
     /// with the least sum (`min_cost_assignment`) is kept if it lowers the energy by more than
     /// `k` margins.
     /// Counts each move as one attempted (and maybe accepted) swap. Calls `after_colour` after
-    /// each colour phase.
+    /// each quarter of the pass's colour phases.
     pub fn run_assignment_pass(
         &mut self,
         k: u32,
