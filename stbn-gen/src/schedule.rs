@@ -171,7 +171,7 @@ impl Layout {
             let z = if nz > 1 {
                 self.axis(tz, nz, d, oz, self.reach_frames)
             } else {
-                Span::whole(d)
+                Span::whole(0, d)
             };
             tiles.push(Tile {
                 x0: x.start,
@@ -206,14 +206,7 @@ impl Layout {
                 SpanStart::PassOffset => offset,
                 SpanStart::Origin => 0,
             };
-            return Span {
-                start,
-                len: size,
-                region_start: start,
-                region_len: size,
-                inset: 0,
-                wraps: true,
-            };
+            return Span::whole(start, size);
         }
         let bound = |i: u32| (u64::from(i) * u64::from(size) / u64::from(n)) as u32;
         let start = (offset + bound(i)) % size;
@@ -230,12 +223,12 @@ impl Layout {
 }
 
 impl Span {
-    /// One tile over a whole axis of `size` pixels, from 0.
-    fn whole(size: u32) -> Span {
+    /// One tile over a whole axis of `size` pixels, from pixel `start` (the region wraps).
+    fn whole(start: u32, size: u32) -> Span {
         Span {
-            start: 0,
+            start,
             len: size,
-            region_start: 0,
+            region_start: start,
             region_len: size,
             inset: 0,
             wraps: true,
