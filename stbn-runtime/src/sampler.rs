@@ -423,12 +423,22 @@ impl<'a> Stbn<'a> {
     #[inline(always)]
     pub(crate) fn voxel_pow2(&self, x: i32, y: i32, frame: u32, o: SampleOffset) -> usize {
         debug_assert!(self.all_pow2);
+        self.voxel_number_pow2(x, y, frame, o) * self.channels
+    }
+
+    /// The voxel number `(z · height + y) · width + x` of [`voxel_pow2`](Self::voxel_pow2)
+    /// (its channel-0 element index divided by the channels), for callers that know the
+    /// channel count as a constant. Meaningless unless `all_pow2`, but computed without
+    /// overflow for every mask (both shifts are below 31: width × height < 2^31 voxels), so a
+    /// caller may compute it before it tests `all_pow2`.
+    #[inline(always)]
+    pub(crate) fn voxel_number_pow2(&self, x: i32, y: i32, frame: u32, o: SampleOffset) -> usize {
         // Every axis length divides 2^32, so wrapping u32 sums keep the exact residues; the
         // packed index is < width*height*depth <= 2^31.
         let x = (x as u32).wrapping_add(o.x as u32) & self.x.mask;
         let y = (y as u32).wrapping_add(o.y as u32) & self.y.mask;
         let z = frame.wrapping_add(o.frame) & self.z.mask;
-        ((z << self.z_shift) | (y << self.y_shift) | x) as usize * self.channels
+        ((z << self.z_shift) | (y << self.y_shift) | x) as usize
     }
 
     /// Decodes element `index` (< element count, so every access is in bounds).
