@@ -166,7 +166,8 @@
 //! # Ok::<(), stbn_runtime::Error>(())
 //! ```
 #![no_std]
-// `unsafe` only in `sqrt.rs`: the square-root instructions, behind `#[allow(unsafe_code)]`.
+// `unsafe` only behind `#[allow(unsafe_code)]`, each with a measured reason: the square-root
+// instructions (`sqrt.rs`) and the AVX2 build of the vector fills (`wide.rs`).
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
 
@@ -183,6 +184,8 @@ mod packed;
 mod sampler;
 mod sqrt;
 mod vector;
+#[cfg(target_arch = "x86_64")]
+mod wide;
 
 #[doc(hidden)]
 pub use embed::__private;

@@ -384,8 +384,10 @@ fn voxel_value<T: ValueTransform, const C: usize>(u: [f32; 4], plan: &VectorPlan
     }
 }
 
-/// Voxels a row fill decodes per block, in stack buffers of `8 * FILL_BLOCK` `f32`s (2 KB).
-const FILL_BLOCK: usize = 64;
+/// Voxels a row fill decodes per block, in stack buffers of `8 * FILL_BLOCK` `f32`s (1 KB): in
+/// AVX2 fills of 1080p rows, 32 measured 1.1–1.4× faster than 64 (less to zero per run of
+/// voxels), and 128 slower still.
+const FILL_BLOCK: usize = 32;
 
 impl Stbn<'_> {
     /// What the values are samples of.
@@ -512,11 +514,7 @@ impl Stbn<'_> {
         out: &mut [V],
     ) {
         self.row_runs(x0, y, frame, o, out, |first, run| {
-            self.plan.dispatch(RunVisitor {
-                mask: self,
-                first,
-                out: run,
-            });
+            self.fill_vector_run(first, run);
         });
     }
 
@@ -529,12 +527,52 @@ impl Stbn<'_> {
         out: &mut [V],
     ) -> usize {
         self.frame_runs(frame, o, out, |first, run| {
-            self.plan.dispatch(RunVisitor {
-                mask: self,
-                first,
-                out: run,
-            });
+            self.fill_vector_run(first, run);
         })
+    }
+
+    /// Decodes the run of contiguous voxels starting at channel-0 element `first` into `out`,
+    /// with AVX2 where the CPU has it ([`wide`](crate::wide)).
+    #[inline]
+    fn fill_vector_run<V: VectorOutput>(&self, first: usize, out: &mut [V]) {
+        #[cfg(target_arch = "x86_64")]
+        if crate::wide::has_avx2() {
+            // SAFETY: the CPU runs AVX2 code (checked just above), all that
+            // `fill_vector_run_avx2` requires.
+            #[allow(unsafe_code)]
+            unsafe {
+                self.fill_vector_run_avx2(first, out);
+            }
+            return;
+        }
+        self.fill_vector_run_portable(first, out);
+    }
+
+    /// [`fill_vector_run`](Self::fill_vector_run) compiled for the target's baseline.
+    #[inline(never)]
+    fn fill_vector_run_portable<V: VectorOutput>(&self, first: usize, out: &mut [V]) {
+        self.plan.dispatch(RunVisitor {
+            mask: self,
+            first,
+            out,
+        });
+    }
+
+    /// [`fill_vector_run`](Self::fill_vector_run) compiled with AVX2: the same operations, 8
+    /// lanes wide.
+    ///
+    /// # Safety
+    /// The CPU must run AVX2 code ([`has_avx2`](crate::wide::has_avx2)).
+    #[cfg(target_arch = "x86_64")]
+    #[allow(unsafe_code)]
+    #[target_feature(enable = "avx2")]
+    #[inline(never)]
+    unsafe fn fill_vector_run_avx2<V: VectorOutput>(&self, first: usize, out: &mut [V]) {
+        self.plan.dispatch(RunVisitor {
+            mask: self,
+            first,
+            out,
+        });
     }
 
     /// The output for `value`, the value of the voxel whose `S` elements start at element
@@ -752,6 +790,7 @@ impl Pdf {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::MaskHeader;
 
     #[test]
     fn octahedral_round_trips_on_a_sphere_grid() {
@@ -788,6 +827,67 @@ mod tests {
         assert!(worst < 1.2e-7, "{worst}");
         assert_eq!(scale_of_squared_length(1.0), 1.0);
         assert_eq!(scale_of_squared_length(0.0), 1.0);
+    }
+
+    /// The AVX2 build of the fills gives the portable build's bits, for every transform, pdf
+    /// and encoding, over runs long enough for whole 8-lane blocks and their remainders.
+    #[test]
+    #[cfg(target_arch = "x86_64")]
+    fn avx2_fills_match_the_portable_build() {
+        use crate::{Encoding, Space};
+        if !crate::wide::has_avx2() {
+            return;
+        }
+        let layouts = [
+            (Space::Vec, ValueMap::Unit, 2, 0.0, 0.0),
+            (Space::Vec, ValueMap::Signed, 4, 0.0, 0.0),
+            (Space::UnitVec, ValueMap::Signed, 3, 0.0, 0.0),
+            (Space::UnitVec, ValueMap::Octahedral, 2, 0.0, 0.0),
+            (Space::CosineHemisphere, ValueMap::Octahedral, 2, 0.0, 0.0),
+            (Space::ImagePoints, ValueMap::Unit, 3, 0.25, 8.0),
+            (Space::EnvironmentDirections, ValueMap::Signed, 4, 0.5, 3.0),
+        ];
+        let mut state = 0x9E37_79B9_7F4A_7C15u64;
+        for (space, map, channels, pdf_min, pdf_max) in layouts {
+            for encoding in [Encoding::Unorm8, Encoding::Unorm16, Encoding::F32] {
+                let header = MaskHeader::new(77, 3, 2, channels, encoding)
+                    .with_space(space, map, pdf_min, pdf_max);
+                // Room for the largest payload: 4 `f32` channels.
+                let data: [u8; 77 * 3 * 2 * 4 * 4] = core::array::from_fn(|i| {
+                    state ^= state << 13;
+                    state ^= state >> 7;
+                    state ^= state << 17;
+                    // F32 elements in [0, 1) (exponent byte below 0x3f), Unorm ones anything.
+                    match encoding {
+                        Encoding::F32 if i % 4 == 3 => (state as u8) % 0x3f,
+                        _ => state as u8,
+                    }
+                });
+                let data = &data[..header.decoded_len()];
+                let mask = Stbn::from_parts(header, data);
+                let voxels = (77 * 3 * 2) as usize;
+                for (first, len) in [(0, voxels), (5, 70), (77, 31), (100, 1)] {
+                    let start = first * usize::from(channels);
+                    let mut portable = [VectorSample {
+                        value: Vec4::splat(9.0),
+                        pdf: 9.0,
+                    }; 77 * 3 * 2];
+                    let mut wide = portable;
+                    mask.fill_vector_run_portable(start, &mut portable[..len]);
+                    // SAFETY: the CPU runs AVX2 code (checked above).
+                    #[allow(unsafe_code)]
+                    unsafe {
+                        mask.fill_vector_run_avx2(start, &mut wide[..len]);
+                    }
+                    for (p, w) in portable.iter().zip(&wide) {
+                        let bits = |v: &VectorSample| {
+                            (v.value.to_array().map(f32::to_bits), v.pdf.to_bits())
+                        };
+                        assert_eq!(bits(p), bits(w), "{header:?} run {first}+{len}");
+                    }
+                }
+            }
+        }
     }
 
     #[test]
