@@ -635,13 +635,40 @@ impl<V: VectorOutput> PlanVisitor for VoxelVisitor<'_, '_, V> {
 }
 
 /// Decodes a run of contiguous voxels, the first with channel-0 element index `first`, into
-/// `out`, block by block in passes that LLVM vectorises: the element conversion, the values
-/// before normalisation, then (for unit values) their [`unit_scale`]s with the outputs: the
-/// steps of [`voxel_value`], so the same bits.
+/// `out`: the steps of [`voxel_value`], so the same bits, in loops LLVM vectorises. Values
+/// without scaling take one pass ([`fill_unscaled`]); unit values go block by block in passes:
+/// the element conversion, the values before normalisation, then their [`unit_scale`]s with
+/// the outputs (one pass measured up to 15% slower for them, and 2.3× faster for Vec2).
 struct RunVisitor<'s, 'a, 'o, V> {
     mask: &'s Stbn<'a>,
     first: usize,
     out: &'o mut [V],
+}
+
+/// The run of [`RunVisitor`] for a transform without scaling (`!T::UNIT`), whose elements are
+/// `BPE` bytes each (the mask's encoding): one pass, each voxel decoded from its `S · BPE`
+/// bytes, the operations of [`voxel_value`].
+#[inline(always)]
+fn fill_unscaled<
+    T: ValueTransform,
+    V: VectorOutput,
+    const C: usize,
+    const S: usize,
+    const BPE: usize,
+>(
+    mask: &Stbn<'_>,
+    first: usize,
+    bytes: &[u8],
+    out: &mut [V],
+    plan: &VectorPlan,
+) {
+    let encoding = mask.encoding();
+    for (i, (o, q)) in out.iter_mut().zip(bytes.chunks_exact(S * BPE)).enumerate() {
+        let mut u = [0.0; 4];
+        decode_elements(encoding, &q[..C * BPE], &mut u[..C]);
+        let value = T::value::<C>(u, plan);
+        *o = mask.vector_output::<V, S>(value, first + i * S);
+    }
 }
 
 impl<V: VectorOutput> PlanVisitor for RunVisitor<'_, '_, '_, V> {
@@ -651,6 +678,18 @@ impl<V: VectorOutput> PlanVisitor for RunVisitor<'_, '_, '_, V> {
         let mask = self.mask;
         let encoding = mask.encoding();
         let bpe = encoding.bytes_per_element();
+        if !T::UNIT {
+            let bytes = &mask.data()[self.first * bpe..(self.first + self.out.len() * S) * bpe];
+            // One loop per encoding, so that each voxel's bytes are a constant-length chunk.
+            let out = self.out;
+            let first = self.first;
+            match encoding {
+                Encoding::Unorm8 => fill_unscaled::<T, V, C, S, 1>(mask, first, bytes, out, plan),
+                Encoding::Unorm16 => fill_unscaled::<T, V, C, S, 2>(mask, first, bytes, out, plan),
+                Encoding::F32 => fill_unscaled::<T, V, C, S, 4>(mask, first, bytes, out, plan),
+            }
+            return;
+        }
         let mut elements = [0.0f32; 4 * FILL_BLOCK];
         // The block's values before normalisation, one array per component.
         let mut xs = [0.0f32; FILL_BLOCK];
@@ -666,16 +705,6 @@ impl<V: VectorOutput> PlanVisitor for RunVisitor<'_, '_, '_, V> {
                 &mask.data()[first * bpe..(first + len) * bpe],
                 elements,
             );
-            if !T::UNIT {
-                // Nothing to scale: one pass.
-                for (i, (o, e)) in block.iter_mut().zip(elements.chunks_exact(S)).enumerate() {
-                    let mut u = [0.0; 4];
-                    u[..C].copy_from_slice(&e[..C]);
-                    let value = T::value::<C>(u, plan);
-                    *o = mask.vector_output::<V, S>(value, first + i * S);
-                }
-                continue;
-            }
             for ((((e, x), y), z), w) in elements
                 .chunks_exact(S)
                 .zip(&mut xs)
