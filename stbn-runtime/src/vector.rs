@@ -384,9 +384,9 @@ fn voxel_value<T: ValueTransform, const C: usize>(u: [f32; 4], plan: &VectorPlan
     }
 }
 
-/// Voxels a row fill decodes per block, in stack buffers of `8 * FILL_BLOCK` `f32`s (1 KB): in
-/// AVX2 fills of 1080p rows, 32 measured 1.1–1.4× faster than 64 (less to zero per run of
-/// voxels), and 128 slower still.
+/// Unit values a row fill decodes per block, in stack buffers of `8 * FILL_BLOCK` `f32`s (1 KB):
+/// in AVX2 fills of 1080p rows, 32 measured 2–6% faster than 64 (less to zero per run of
+/// voxels), and 128 about 15% slower than 64.
 const FILL_BLOCK: usize = 32;
 
 impl Stbn<'_> {
@@ -551,7 +551,7 @@ impl Stbn<'_> {
     /// [`fill_vector_run`](Self::fill_vector_run) compiled for the target's baseline.
     #[inline(never)]
     fn fill_vector_run_portable<V: VectorOutput>(&self, first: usize, out: &mut [V]) {
-        self.plan.dispatch(RunVisitor {
+        self.plan.dispatch(RunVisitor::<V, false> {
             mask: self,
             first,
             out,
@@ -568,7 +568,7 @@ impl Stbn<'_> {
     #[target_feature(enable = "avx2")]
     #[inline(never)]
     unsafe fn fill_vector_run_avx2<V: VectorOutput>(&self, first: usize, out: &mut [V]) {
-        self.plan.dispatch(RunVisitor {
+        self.plan.dispatch(RunVisitor::<V, true> {
             mask: self,
             first,
             out,
@@ -635,11 +635,13 @@ impl<V: VectorOutput> PlanVisitor for VoxelVisitor<'_, '_, V> {
 }
 
 /// Decodes a run of contiguous voxels, the first with channel-0 element index `first`, into
-/// `out`: the steps of [`voxel_value`], so the same bits, in loops LLVM vectorises. Values
-/// without scaling take one pass ([`fill_unscaled`]); unit values go block by block in passes:
-/// the element conversion, the values before normalisation, then their [`unit_scale`]s with
-/// the outputs (one pass measured up to 15% slower for them, and 2.3× faster for Vec2).
-struct RunVisitor<'s, 'a, 'o, V> {
+/// `out`: the steps of [`voxel_value`], so the same bits, in loops LLVM vectorises, block by
+/// block in passes: the element conversion, the values before normalisation, then (for unit
+/// values) their [`unit_scale`]s with the outputs. With `ONE_PASS` (the AVX2 build), values
+/// without scaling take one pass instead ([`fill_unscaled`]): 1080p Vec2 Unorm8 0.25 against
+/// 0.57 ms in blocks; without AVX2 it measured 1.8 against 1.1 ms, and for unit values one pass
+/// was up to 15% slower in either build.
+struct RunVisitor<'s, 'a, 'o, V, const ONE_PASS: bool> {
     mask: &'s Stbn<'a>,
     first: usize,
     out: &'o mut [V],
@@ -671,14 +673,14 @@ fn fill_unscaled<
     }
 }
 
-impl<V: VectorOutput> PlanVisitor for RunVisitor<'_, '_, '_, V> {
+impl<V: VectorOutput, const ONE_PASS: bool> PlanVisitor for RunVisitor<'_, '_, '_, V, ONE_PASS> {
     type Out = ();
     #[inline(always)]
     fn visit<T: ValueTransform, const C: usize, const S: usize>(self, plan: &VectorPlan) {
         let mask = self.mask;
         let encoding = mask.encoding();
         let bpe = encoding.bytes_per_element();
-        if !T::UNIT {
+        if !T::UNIT && ONE_PASS {
             let bytes = &mask.data()[self.first * bpe..(self.first + self.out.len() * S) * bpe];
             // One loop per encoding, so that each voxel's bytes are a constant-length chunk.
             let out = self.out;
@@ -705,6 +707,16 @@ impl<V: VectorOutput> PlanVisitor for RunVisitor<'_, '_, '_, V> {
                 &mask.data()[first * bpe..(first + len) * bpe],
                 elements,
             );
+            if !T::UNIT {
+                // Nothing to scale: one pass over the decoded elements.
+                for (i, (o, e)) in block.iter_mut().zip(elements.chunks_exact(S)).enumerate() {
+                    let mut u = [0.0; 4];
+                    u[..C].copy_from_slice(&e[..C]);
+                    let value = T::value::<C>(u, plan);
+                    *o = mask.vector_output::<V, S>(value, first + i * S);
+                }
+                continue;
+            }
             for ((((e, x), y), z), w) in elements
                 .chunks_exact(S)
                 .zip(&mut xs)
