@@ -167,7 +167,8 @@
 //! ```
 #![no_std]
 // `unsafe` only behind `#[allow(unsafe_code)]`, each with a measured reason: the square-root
-// instructions (`sqrt.rs`) and the AVX2 build of the vector fills (`wide.rs`).
+// instructions (`sqrt.rs`), and the AVX2 build of the vector fills (its detection in `wide.rs`,
+// its calls in `vector.rs`).
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
 

@@ -429,7 +429,7 @@ impl<'a> Stbn<'a> {
     /// The voxel number `(z · height + y) · width + x` of [`voxel_pow2`](Self::voxel_pow2)
     /// (its channel-0 element index divided by the channels), for callers that know the
     /// channel count as a constant. Meaningless unless `all_pow2`, but computed without
-    /// overflow for every mask (both shifts are below 31: width × height < 2^31 voxels), so a
+    /// overflow for every mask (both shifts are at most 31: width × height ≤ 2^31 voxels), so a
     /// caller may compute it before it tests `all_pow2`.
     #[inline(always)]
     pub(crate) fn voxel_number_pow2(&self, x: i32, y: i32, frame: u32, o: SampleOffset) -> usize {

@@ -84,8 +84,8 @@ mod sealed {
     pub trait FromValue {
         /// Whether [`from_value`](Self::from_value) reads its `pdf` (otherwise it gets 0).
         const NEEDS_PDF: bool;
-        /// The [`Hot`](super::Hot) plans whose per-sample reads of this output are inlined
-        /// into the caller, as a set of `1 << plan` bits.
+        /// The [`Hot`](super::Hot) plans whose per-sample reads of this output are tested
+        /// first, as a set of `1 << plan` bits.
         const HOT: u8;
         /// The output for the decoded value `value` (unused components 0) and its pdf.
         fn from_value(value: [f32; 4], pdf: f32) -> Self;
@@ -143,10 +143,6 @@ impl VectorOutput for VectorSample {}
 pub(crate) struct VectorPlan {
     transform: Transform,
     layout: Layout,
-    /// The value map as `u * scale + bias`: `(1, -0)` for [`ValueMap::Unit`] (exactly `u`, since
-    /// `u + (-0.0)` is `u` for every `u`), `(2, -1)` otherwise.
-    scale: f32,
-    bias: f32,
     pdf: Pdf,
     /// The plan's hot path, [`Hot::None`] for a mask whose axes are not all powers of two.
     hot: Hot,
@@ -155,7 +151,9 @@ pub(crate) struct VectorPlan {
 /// The plans whose per-sample reads into the output that lists them are tested first, with
 /// straight-line code per encoding: the common ones, on masks whose axes are all powers of two
 /// (so that the voxel index is a few integer instructions). Every other read goes through the
-/// full dispatch on the plan, with the same arithmetic.
+/// full dispatch on the plan, with the same arithmetic. Each hot plan adds code to a caller's
+/// pixel loop: signed Vec2 and Vec4 masks as hot plans too made `sample_vec2` of a Unorm8 Vec2
+/// mask 2.3 → 2.7 ms per 1080p frame, so they stay out.
 #[derive(Clone, Copy, PartialEq, Eq)]
 pub(crate) enum Hot {
     /// None of the others.
@@ -194,7 +192,8 @@ enum Transform {
     /// Kept as stored: [`ValueMap::Unit`] outside unit-vector spaces (mapping by `u · 1 + (−0)`
     /// would give the same numbers, in two more operations per channel).
     Identity,
-    /// Mapped, then kept.
+    /// Mapped by [`ValueMap::Signed`]'s `2u − 1` (what every transform but `Identity` starts
+    /// with: unit-vector spaces are never [`ValueMap::Unit`]), then kept.
     Keep,
     /// Normalised to length 1 (unit-vector spaces), a zero vector kept.
     Normalise,
@@ -232,10 +231,6 @@ impl VectorPlan {
             (3, _) => Layout::C3S4,
             _ => Layout::C4S4,
         };
-        let (scale, bias) = match header.value_map {
-            ValueMap::Unit => (1.0, -0.0),
-            ValueMap::Signed | ValueMap::Octahedral => (2.0, -1.0),
-        };
         let pow2 = header.width.is_power_of_two()
             && header.height.is_power_of_two()
             && header.depth.is_power_of_two();
@@ -250,8 +245,6 @@ impl VectorPlan {
         Self {
             transform,
             layout,
-            scale,
-            bias,
             pdf: Pdf::new(header),
             hot,
         }
@@ -264,12 +257,12 @@ impl VectorPlan {
         macro_rules! layouts {
             ($t:ty) => {
                 match self.layout {
-                    Layout::C1S1 => visitor.visit::<$t, 1, 1>(self),
-                    Layout::C2S2 => visitor.visit::<$t, 2, 2>(self),
-                    Layout::C2S3 => visitor.visit::<$t, 2, 3>(self),
-                    Layout::C3S3 => visitor.visit::<$t, 3, 3>(self),
-                    Layout::C3S4 => visitor.visit::<$t, 3, 4>(self),
-                    Layout::C4S4 => visitor.visit::<$t, 4, 4>(self),
+                    Layout::C1S1 => visitor.visit::<$t, 1, 1>(),
+                    Layout::C2S2 => visitor.visit::<$t, 2, 2>(),
+                    Layout::C2S3 => visitor.visit::<$t, 2, 3>(),
+                    Layout::C3S3 => visitor.visit::<$t, 3, 3>(),
+                    Layout::C3S4 => visitor.visit::<$t, 3, 4>(),
+                    Layout::C4S4 => visitor.visit::<$t, 4, 4>(),
                 }
             };
         }
@@ -285,10 +278,7 @@ impl VectorPlan {
 /// Code run for one plan, with its transform `T`, `C` value channels and `S` channels per voxel.
 trait PlanVisitor {
     type Out;
-    fn visit<T: ValueTransform, const C: usize, const S: usize>(
-        self,
-        plan: &VectorPlan,
-    ) -> Self::Out;
+    fn visit<T: ValueTransform, const C: usize, const S: usize>(self) -> Self::Out;
 }
 
 /// The value of one voxel from its first `C` stored unit values `u` (later lanes 0), in two
@@ -298,7 +288,7 @@ trait ValueTransform {
     /// Whether the value is scaled to length 1 after [`value`](Self::value).
     const UNIT: bool;
     /// The value before the scaling to length 1.
-    fn value<const C: usize>(u: [f32; 4], plan: &VectorPlan) -> [f32; 4];
+    fn value<const C: usize>(u: [f32; 4]) -> [f32; 4];
 }
 
 /// [`Transform::Identity`].
@@ -313,7 +303,7 @@ struct Octahedral;
 impl ValueTransform for Identity {
     const UNIT: bool = false;
     #[inline(always)]
-    fn value<const C: usize>(u: [f32; 4], _: &VectorPlan) -> [f32; 4] {
+    fn value<const C: usize>(u: [f32; 4]) -> [f32; 4] {
         let mut v = [0.0; 4];
         v[..C].copy_from_slice(&u[..C]);
         v
@@ -323,10 +313,10 @@ impl ValueTransform for Identity {
 impl ValueTransform for Keep {
     const UNIT: bool = false;
     #[inline(always)]
-    fn value<const C: usize>(u: [f32; 4], plan: &VectorPlan) -> [f32; 4] {
+    fn value<const C: usize>(u: [f32; 4]) -> [f32; 4] {
         let mut v = [0.0; 4];
         for (v, u) in v.iter_mut().zip(u).take(C) {
-            *v = u * plan.scale + plan.bias;
+            *v = u * 2.0 - 1.0;
         }
         v
     }
@@ -335,16 +325,16 @@ impl ValueTransform for Keep {
 impl ValueTransform for Normalise {
     const UNIT: bool = true;
     #[inline(always)]
-    fn value<const C: usize>(u: [f32; 4], plan: &VectorPlan) -> [f32; 4] {
-        Keep::value::<C>(u, plan)
+    fn value<const C: usize>(u: [f32; 4]) -> [f32; 4] {
+        Keep::value::<C>(u)
     }
 }
 
 impl ValueTransform for Octahedral {
     const UNIT: bool = true;
     #[inline(always)]
-    fn value<const C: usize>(u: [f32; 4], plan: &VectorPlan) -> [f32; 4] {
-        let e = Keep::value::<C>(u, plan);
+    fn value<const C: usize>(u: [f32; 4]) -> [f32; 4] {
+        let e = Keep::value::<C>(u);
         octahedral_unfold(e[0], e[1])
     }
 }
@@ -374,8 +364,8 @@ fn scale_of_squared_length(d: f32) -> f32 {
 /// The value of a voxel whose `C` value channels hold the stored unit values `u`: what every
 /// per-sample read returns, and what the fills compute in the same operations over a block.
 #[inline(always)]
-fn voxel_value<T: ValueTransform, const C: usize>(u: [f32; 4], plan: &VectorPlan) -> [f32; 4] {
-    let v = T::value::<C>(u, plan);
+fn voxel_value<T: ValueTransform, const C: usize>(u: [f32; 4]) -> [f32; 4] {
+    let v = T::value::<C>(u);
     if T::UNIT {
         let scale = unit_scale(v);
         v.map(|c| c * scale)
@@ -384,7 +374,7 @@ fn voxel_value<T: ValueTransform, const C: usize>(u: [f32; 4], plan: &VectorPlan
     }
 }
 
-/// Unit values a row fill decodes per block, in stack buffers of `8 * FILL_BLOCK` `f32`s (1 KB):
+/// Voxels a row fill decodes per block, in stack buffers of `8 * FILL_BLOCK` `f32`s (1 KB):
 /// in AVX2 fills of 1080p rows, 32 measured 2–6% faster than 64 (less to zero per run of
 /// voxels), and 128 about 15% slower than 64.
 const FILL_BLOCK: usize = 32;
@@ -503,7 +493,7 @@ impl Stbn<'_> {
                     if V::HOT & Hot::$plan.bit() != 0 {
                         for e in [Encoding::Unorm8, Encoding::Unorm16, Encoding::F32] {
                             if mask_key == key(Hot::$plan, e) {
-                                return visitor(number * $c, e).visit::<$t, $c, $c>(&self.plan);
+                                return visitor(number * $c, e).visit::<$t, $c, $c>();
                             }
                         }
                     }
@@ -632,7 +622,7 @@ struct VoxelVisitor<'s, 'a, V> {
 impl<V: VectorOutput> PlanVisitor for VoxelVisitor<'_, '_, V> {
     type Out = V;
     #[inline(always)]
-    fn visit<T: ValueTransform, const C: usize, const S: usize>(self, plan: &VectorPlan) -> V {
+    fn visit<T: ValueTransform, const C: usize, const S: usize>(self) -> V {
         let data = self.data;
         let i = self.voxel;
         let mut u = [0.0; 4];
@@ -645,7 +635,7 @@ impl<V: VectorOutput> PlanVisitor for VoxelVisitor<'_, '_, V> {
             Encoding::F32 => &data[4 * i..4 * (i + C)],
         };
         decode_elements(encoding, bytes, &mut u[..C]);
-        let value = voxel_value::<T, C>(u, plan);
+        let value = voxel_value::<T, C>(u);
         self.mask.vector_output::<V, S>(value, i)
     }
 }
@@ -655,7 +645,7 @@ impl<V: VectorOutput> PlanVisitor for VoxelVisitor<'_, '_, V> {
 /// block in passes: the element conversion, the values before normalisation, then (for unit
 /// values) their [`unit_scale`]s with the outputs. With `ONE_PASS` (the AVX2 build), values
 /// without scaling take one pass instead ([`fill_unscaled`]): 1080p Vec2 Unorm8 0.25 against
-/// 0.57 ms in blocks; without AVX2 it measured 1.8 against 1.1 ms, and for unit values one pass
+/// 0.45 ms in blocks; without AVX2 it measured 1.8 against 0.75 ms, and for unit values one pass
 /// was up to 15% slower in either build.
 struct RunVisitor<'s, 'a, 'o, V, const ONE_PASS: bool> {
     mask: &'s Stbn<'a>,
@@ -678,13 +668,12 @@ fn fill_unscaled<
     first: usize,
     bytes: &[u8],
     out: &mut [V],
-    plan: &VectorPlan,
 ) {
     let encoding = mask.encoding();
     for (i, (o, q)) in out.iter_mut().zip(bytes.chunks_exact(S * BPE)).enumerate() {
         let mut u = [0.0; 4];
         decode_elements(encoding, &q[..C * BPE], &mut u[..C]);
-        let value = T::value::<C>(u, plan);
+        let value = T::value::<C>(u);
         *o = mask.vector_output::<V, S>(value, first + i * S);
     }
 }
@@ -692,7 +681,7 @@ fn fill_unscaled<
 impl<V: VectorOutput, const ONE_PASS: bool> PlanVisitor for RunVisitor<'_, '_, '_, V, ONE_PASS> {
     type Out = ();
     #[inline(always)]
-    fn visit<T: ValueTransform, const C: usize, const S: usize>(self, plan: &VectorPlan) {
+    fn visit<T: ValueTransform, const C: usize, const S: usize>(self) {
         let mask = self.mask;
         let encoding = mask.encoding();
         let bpe = encoding.bytes_per_element();
@@ -702,9 +691,9 @@ impl<V: VectorOutput, const ONE_PASS: bool> PlanVisitor for RunVisitor<'_, '_, '
             let out = self.out;
             let first = self.first;
             match encoding {
-                Encoding::Unorm8 => fill_unscaled::<T, V, C, S, 1>(mask, first, bytes, out, plan),
-                Encoding::Unorm16 => fill_unscaled::<T, V, C, S, 2>(mask, first, bytes, out, plan),
-                Encoding::F32 => fill_unscaled::<T, V, C, S, 4>(mask, first, bytes, out, plan),
+                Encoding::Unorm8 => fill_unscaled::<T, V, C, S, 1>(mask, first, bytes, out),
+                Encoding::Unorm16 => fill_unscaled::<T, V, C, S, 2>(mask, first, bytes, out),
+                Encoding::F32 => fill_unscaled::<T, V, C, S, 4>(mask, first, bytes, out),
             }
             return;
         }
@@ -728,7 +717,7 @@ impl<V: VectorOutput, const ONE_PASS: bool> PlanVisitor for RunVisitor<'_, '_, '
                 for (i, (o, e)) in block.iter_mut().zip(elements.chunks_exact(S)).enumerate() {
                     let mut u = [0.0; 4];
                     u[..C].copy_from_slice(&e[..C]);
-                    let value = T::value::<C>(u, plan);
+                    let value = T::value::<C>(u);
                     *o = mask.vector_output::<V, S>(value, first + i * S);
                 }
                 continue;
@@ -742,7 +731,7 @@ impl<V: VectorOutput, const ONE_PASS: bool> PlanVisitor for RunVisitor<'_, '_, '
             {
                 let mut u = [0.0; 4];
                 u[..C].copy_from_slice(&e[..C]);
-                let v = T::value::<C>(u, plan);
+                let v = T::value::<C>(u);
                 [*x, *y, *z] = [v[0], v[1], v[2]];
                 // Below 4 value channels the fourth component is 0 (octahedral values have 2
                 // channels and 3 components): neither stored nor read.
@@ -893,6 +882,8 @@ mod tests {
     fn avx2_fills_match_the_portable_build() {
         use crate::{Encoding, Space};
         if !crate::wide::has_avx2() {
+            extern crate std;
+            std::eprintln!("no AVX2 on this CPU: the AVX2 build is not compared");
             return;
         }
         let layouts = [

@@ -16,6 +16,11 @@
 /// per process (`cpuid` and `xgetbv`, what `std::is_x86_feature_detected!` checks).
 pub(crate) fn has_avx2() -> bool {
     use core::sync::atomic::{AtomicU8, Ordering};
+    // Targets without SSE (soft-float kernels, where the vector registers may not be saved) and
+    // SGX enclaves (where `cpuid` faults) never take the AVX2 build.
+    if cfg!(any(not(target_feature = "sse2"), target_env = "sgx")) {
+        return false;
+    }
     // 0: not yet known, 1: no, 2: yes.
     static KNOWN: AtomicU8 = AtomicU8::new(0);
     match KNOWN.load(Ordering::Relaxed) {
