@@ -2,6 +2,8 @@
 //! bits on every platform, and no branches, so loops over them vectorise. The generators' energies
 //! go through them wherever a result must be reproducible bit for bit.
 
+use std::array::from_fn;
+
 /// `e^−x` for `x ≥ 0` (`+∞` allowed), to within a few units in the last place; results below
 /// `e^−708` come out as `e^−708` (≈ 3·10⁻³⁰⁸). Basic IEEE operations only, so bit-identical on
 /// every platform, and branch-free, so loops over it vectorise.
@@ -47,37 +49,47 @@ pub(crate) fn exp_neg(x: f64) -> f64 {
 /// 7 for 2·10⁻⁷; with two Newton steps for the cube root instead of three, the Vec2 value factor
 /// takes 1.4 instead of 2.2 ns per entry (an AVX2 loop over 128 entries; BENCHMARKS.md, "Design
 /// decisions").
+///
+/// Evaluated for `N` lanes one step at a time: the same operations per lane (the same bits for
+/// any `N`), but `N / 8` independent AVX2 chains in flight instead of one, where the chain's
+/// latency and not the number of operations bounds a loop over it.
 #[inline(always)]
-pub(crate) fn exp_neg_f32(x: f32) -> f32 {
+pub(crate) fn exp_neg_f32_lanes<const N: usize>(x: [f32; N]) -> [f32; N] {
     // 1.5 · 2^23: adding it rounds to an integer held in the low mantissa bits.
     const ROUND: f32 = 12_582_912.0;
-    let y = x.min(87.0) * std::f32::consts::LOG2_E;
-    let shifted = y + ROUND;
-    let f = (shifted - ROUND) - y;
+    let y = x.map(|x| x.min(87.0) * std::f32::consts::LOG2_E);
+    let shifted = y.map(|y| y + ROUND);
+    let f: [f32; N] = from_fn(|i| (shifted[i] - ROUND) - y[i]);
     // (ln 2)^n / n!
-    let mut p = 1.333_355_8e-3;
-    p = p * f + 9.618_129e-3;
-    p = p * f + 5.550_411e-2;
-    p = p * f + 0.240_226_5;
-    p = p * f + std::f32::consts::LN_2;
-    p = p * f + 1.0;
+    let mut p = [1.333_355_8e-3; N];
+    for c in [
+        9.618_129e-3,
+        5.550_411e-2,
+        0.240_226_5,
+        std::f32::consts::LN_2,
+        1.0,
+    ] {
+        p = from_fn(|i| p[i] * f[i] + c);
+    }
     // 2^−k from the integer in the low bits of `shifted` (0 ≤ k ≤ 126).
-    let k_int = shifted.to_bits() & 0xff;
-    p * f32::from_bits((127 - k_int) << 23)
+    from_fn(|i| p[i] * f32::from_bits((127 - (shifted[i].to_bits() & 0xff)) << 23))
 }
 
 /// `s^(−1/3)` in single precision for `s > 0` (huge but finite for `s = 0`), relative error
 /// below 1.5·10⁻⁵. A first guess from the bits of `s` (off by at most 3.5%), then two steps of
 /// Newton's iteration `r ← r (4 − s r³) / 3` (error `e ↦ 2e²`: 3.5% → 2.4·10⁻³ → 1.2·10⁻⁵).
+/// Evaluated for `N` lanes one step at a time, as [`exp_neg_f32_lanes`].
 #[inline(always)]
-pub(crate) fn inverse_cbrt_f32(s: f32) -> f32 {
+pub(crate) fn inverse_cbrt_f32_lanes<const N: usize>(s: [f32; N]) -> [f32; N] {
     // The exponent field of s^(−1/3) is about (4/3)·127 − bits(s)/3 (in units of 2^23), with the
     // division by 3 as a widening multiply.
-    let third = ((u64::from(s.to_bits()) * 0xAAAA_AAAB) >> 33) as u32;
-    let mut r = f32::from_bits(0x54a2_32abu32.wrapping_sub(third));
+    let mut r = s.map(|s| {
+        let third = ((u64::from(s.to_bits()) * 0xAAAA_AAAB) >> 33) as u32;
+        f32::from_bits(0x54a2_32abu32.wrapping_sub(third))
+    });
     for _ in 0..2 {
-        let sr3 = ((s * r) * r) * r;
-        r = r * (4.0 - sr3) * (1.0 / 3.0);
+        let sr3: [f32; N] = from_fn(|i| ((s[i] * r[i]) * r[i]) * r[i]);
+        r = from_fn(|i| r[i] * (4.0 - sr3[i]) * (1.0 / 3.0));
     }
     r
 }
@@ -107,11 +119,11 @@ mod tests {
             // exp: up to 86 (beyond 87 the result is clamped by design).
             let x = i as f32 * 4.3e-4;
             let exact = (-f64::from(x)).exp();
-            worst_exp = worst_exp.max((f64::from(exp_neg_f32(x)) - exact).abs() / exact);
+            worst_exp = worst_exp.max((f64::from(exp_neg_f32_lanes([x])[0]) - exact).abs() / exact);
             let s = (i + 1) as f32 * 2.3e-5;
             for s in [s, s * 1e-20, s * 1e20] {
                 let exact = f64::from(s).powf(-1.0 / 3.0);
-                let got = f64::from(inverse_cbrt_f32(s));
+                let got = f64::from(inverse_cbrt_f32_lanes([s])[0]);
                 worst_cbrt = worst_cbrt.max((got - exact).abs() / exact);
             }
         }
@@ -120,8 +132,8 @@ mod tests {
             worst_cbrt < 1.5e-5,
             "cube root: worst relative error {worst_cbrt}"
         );
-        assert_eq!(exp_neg_f32(0.0), 1.0);
-        assert!(exp_neg_f32(f32::INFINITY) < 1e-37);
-        assert!(inverse_cbrt_f32(0.0).is_finite());
+        assert_eq!(exp_neg_f32_lanes([0.0])[0], 1.0);
+        assert!(exp_neg_f32_lanes([f32::INFINITY])[0] < 1e-37);
+        assert!(inverse_cbrt_f32_lanes([0.0])[0].is_finite());
     }
 }

@@ -98,7 +98,7 @@ impl SwapKernel {
     /// `factors` (`taps` rounded up to whole [`FACTOR_LANES`] per value, value-major), for the
     /// update of a kept permutation, and the energies in `costs`.
     #[inline(always)]
-    fn pixel_costs<const D: usize>(
+    fn pixel_costs<const D: usize, const L: usize>(
         &self,
         neighbours: &[[f32; D]],
         values: &[[f32; D]],
@@ -120,7 +120,7 @@ impl SwapKernel {
             }
             row[taps..].fill(0.0);
         }
-        value_factors::<D>(
+        value_factors::<D, L>(
             &distances[..entries],
             &mut factors[..entries],
             self.inv_sigma_value_sq,
@@ -136,7 +136,7 @@ impl SwapKernel {
 
     /// One tile of an assignment pass ([`super::SwapOptimizer::run_assignment_pass`]).
     #[inline(always)]
-    pub(super) fn run_tile_assignment<const D: usize>(
+    pub(super) fn run_tile_assignment<const D: usize, const L: usize>(
         &self,
         region: &mut Region,
         tile: &Tile,
@@ -234,7 +234,7 @@ impl SwapKernel {
                         neighbours[t] = region.value::<D>(n);
                         index[t] = n;
                     });
-                    self.pixel_costs::<D>(
+                    self.pixel_costs::<D, L>(
                         &neighbours,
                         &set_values,
                         (

@@ -96,6 +96,8 @@ mod simd;
 mod tests;
 
 pub use assignment::{ASSIGNMENT_SET, ASSIGNMENT_TILE_TARGET, MAX_ASSIGNMENT};
+#[cfg(test)]
+use energy::FACTOR_LANES;
 pub use energy::SwapKernel;
 pub(crate) use simd::{Build, widest_build};
 
@@ -317,10 +319,10 @@ impl SwapOptimizer {
         let (k, state) = (&self.kernel, &self.state);
         let mut scratch = Scratch::new(k);
         match k.dims {
-            1 => k.delta::<1>(state, z, a, b, &mut scratch).0,
-            2 => k.delta::<2>(state, z, a, b, &mut scratch).0,
-            3 => k.delta::<3>(state, z, a, b, &mut scratch).0,
-            _ => k.delta::<4>(state, z, a, b, &mut scratch).0,
+            1 => k.delta::<1, FACTOR_LANES>(state, z, a, b, &mut scratch).0,
+            2 => k.delta::<2, FACTOR_LANES>(state, z, a, b, &mut scratch).0,
+            3 => k.delta::<3, FACTOR_LANES>(state, z, a, b, &mut scratch).0,
+            _ => k.delta::<4, FACTOR_LANES>(state, z, a, b, &mut scratch).0,
         }
     }
 
@@ -336,10 +338,10 @@ impl SwapOptimizer {
             let (k, state) = (&self.kernel, &mut self.state);
             let mut scratch = Scratch::new(k);
             match k.dims {
-                1 => k.attempt::<1>(state, z, a, b, &mut scratch),
-                2 => k.attempt::<2>(state, z, a, b, &mut scratch),
-                3 => k.attempt::<3>(state, z, a, b, &mut scratch),
-                _ => k.attempt::<4>(state, z, a, b, &mut scratch),
+                1 => k.attempt::<1, FACTOR_LANES>(state, z, a, b, &mut scratch),
+                2 => k.attempt::<2, FACTOR_LANES>(state, z, a, b, &mut scratch),
+                3 => k.attempt::<3, FACTOR_LANES>(state, z, a, b, &mut scratch),
+                _ => k.attempt::<4, FACTOR_LANES>(state, z, a, b, &mut scratch),
             }
         };
         self.attempted += 1;

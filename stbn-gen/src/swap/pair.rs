@@ -98,7 +98,7 @@ impl SwapKernel {
     /// `ΔE = Σ_{n ∈ N(a)∖b} w f(‖vb − vn‖²) − (e(a) − w_ab f_ab)` plus the same for `b`: the
     /// pairs of `a` and of `b` change, except the pair `(a, b)` (energy `w_ab f_ab`, symmetric).
     #[inline(always)]
-    pub(super) fn delta<const D: usize>(
+    pub(super) fn delta<const D: usize, const L: usize>(
         &self,
         region: &Region,
         z: u32,
@@ -118,7 +118,7 @@ impl SwapKernel {
         self.gather::<D>(region, (a.0, a.1, z), ia, &vb, after_a);
         self.gather::<D>(region, (b.0, b.1, z), ib, &va, after_b);
         let inv = self.inv_sigma_value_sq;
-        value_factors::<D>(&scratch.after, &mut scratch.factor, inv);
+        value_factors::<D, L>(&scratch.after, &mut scratch.factor, inv);
         scratch.pair = self
             .spatial_tap(a, b)
             .zip(self.spatial_tap(b, a))
@@ -140,7 +140,7 @@ impl SwapKernel {
     /// [`SwapKernel::delta`] just evaluated (with `scratch` as it left it): swaps the values and
     /// updates the energies of `a`, `b` and every neighbour.
     #[inline(always)]
-    fn apply<const D: usize>(
+    fn apply<const D: usize, const L: usize>(
         &self,
         region: &mut Region,
         z: u32,
@@ -159,7 +159,7 @@ impl SwapKernel {
                 before[first + k] = squared_distance(value, &region.value::<D>(n));
             });
         }
-        value_factors::<D>(
+        value_factors::<D, L>(
             &scratch.before,
             &mut scratch.factor,
             self.inv_sigma_value_sq,
@@ -185,7 +185,7 @@ impl SwapKernel {
     /// Swaps `a` and `b` of slice `z` if that lowers the energy by more than the margin; returns
     /// the (negative) delta of an accepted swap.
     #[inline(always)]
-    pub(super) fn attempt<const D: usize>(
+    pub(super) fn attempt<const D: usize, const L: usize>(
         &self,
         region: &mut Region,
         z: u32,
@@ -193,9 +193,9 @@ impl SwapKernel {
         b: (u32, u32),
         scratch: &mut Scratch,
     ) -> Option<f64> {
-        let (delta, ia, ib) = self.delta::<D>(region, z, a, b, scratch);
+        let (delta, ia, ib) = self.delta::<D, L>(region, z, a, b, scratch);
         if delta < -self.margin {
-            self.apply::<D>(region, z, (a, b), (ia, ib), scratch);
+            self.apply::<D, L>(region, z, (a, b), (ia, ib), scratch);
             Some(delta)
         } else {
             None
@@ -206,7 +206,7 @@ impl SwapKernel {
 impl SwapKernel {
     /// Proposes the swaps of one tile of one pass in every slice.
     #[inline(always)]
-    pub(super) fn run_tile_swaps<const D: usize>(
+    pub(super) fn run_tile_swaps<const D: usize, const L: usize>(
         &self,
         region: &mut Region,
         tile: &Tile,
@@ -237,7 +237,8 @@ impl SwapKernel {
                     if d > 0.0 { d } else { f32::INFINITY }
                 });
                 result.attempted += 1;
-                if let Some(delta) = self.attempt::<D>(region, z, pixel(i), pixel(j), &mut scratch)
+                if let Some(delta) =
+                    self.attempt::<D, L>(region, z, pixel(i), pixel(j), &mut scratch)
                 {
                     result.accepted += 1;
                     result.delta += delta;

@@ -4,7 +4,7 @@
 
 use rand_chacha::ChaCha8Rng;
 
-use super::energy::SwapKernel;
+use super::energy::{FACTOR_LANES, SwapKernel};
 use super::region::Region;
 use super::{PassPlan, TileResult};
 use crate::schedule::Tile;
@@ -77,7 +77,7 @@ impl SwapKernel {
             // SAFETY: `widest_build` picks AVX2 only where the CPU has it, all that
             // `run_tile_avx2` requires.
             Build::Avx2 => unsafe { self.run_tile_avx2(region, tile, rng, plan) },
-            _ => self.run_tile_dims(region, tile, rng, plan),
+            _ => self.run_tile_dims::<FACTOR_LANES>(region, tile, rng, plan),
         }
     }
 
@@ -91,7 +91,7 @@ impl SwapKernel {
         rng: ChaCha8Rng,
         plan: &PassPlan,
     ) -> TileResult {
-        self.run_tile_dims(region, tile, rng, plan)
+        self.run_tile_dims::<1>(region, tile, rng, plan)
     }
 
     /// [`SwapKernel::run_tile_dims`] compiled with AVX2 enabled.
@@ -104,12 +104,13 @@ impl SwapKernel {
         rng: ChaCha8Rng,
         plan: &PassPlan,
     ) -> TileResult {
-        self.run_tile_dims(region, tile, rng, plan)
+        self.run_tile_dims::<FACTOR_LANES>(region, tile, rng, plan)
     }
 
-    /// [`SwapKernel::run_tile`] for this kernel's value dimension.
+    /// [`SwapKernel::run_tile`] for this kernel's value dimension, evaluating value factors `L`
+    /// lanes a step at a time ([`super::energy::value_factors`]).
     #[inline(always)]
-    fn run_tile_dims(
+    fn run_tile_dims<const L: usize>(
         &self,
         region: &mut Region,
         tile: &Tile,
@@ -117,16 +118,16 @@ impl SwapKernel {
         plan: &PassPlan,
     ) -> TileResult {
         match self.dims {
-            1 => self.run_tile::<1>(region, tile, rng, plan),
-            2 => self.run_tile::<2>(region, tile, rng, plan),
-            3 => self.run_tile::<3>(region, tile, rng, plan),
-            _ => self.run_tile::<4>(region, tile, rng, plan),
+            1 => self.run_tile::<1, L>(region, tile, rng, plan),
+            2 => self.run_tile::<2, L>(region, tile, rng, plan),
+            3 => self.run_tile::<3, L>(region, tile, rng, plan),
+            _ => self.run_tile::<4, L>(region, tile, rng, plan),
         }
     }
 
     /// The moves of one tile: swaps, or assignments for an assignment pass.
     #[inline(always)]
-    fn run_tile<const D: usize>(
+    fn run_tile<const D: usize, const L: usize>(
         &self,
         region: &mut Region,
         tile: &Tile,
@@ -134,9 +135,9 @@ impl SwapKernel {
         plan: &PassPlan,
     ) -> TileResult {
         if plan.assignment >= 2 {
-            self.run_tile_assignment::<D>(region, tile, rng, plan)
+            self.run_tile_assignment::<D, L>(region, tile, rng, plan)
         } else {
-            self.run_tile_swaps::<D>(region, tile, rng, plan)
+            self.run_tile_swaps::<D, L>(region, tile, rng, plan)
         }
     }
 }
@@ -169,7 +170,10 @@ mod tests {
             let mut region = o.state.tile_copy(&o.kernel, tile);
             let rng = keyed_rng(5, crate::rng::VECTOR.tile, pass, tile.id);
             let result = match build {
-                Build::Portable => o.kernel.run_tile_dims(&mut region, tile, rng, plan),
+                Build::Portable => {
+                    o.kernel
+                        .run_tile_dims::<FACTOR_LANES>(&mut region, tile, rng, plan)
+                }
                 // SAFETY: the CPU has AVX2 (asserted above).
                 Build::Avx2 => unsafe { o.kernel.run_tile_avx2(&mut region, tile, rng, plan) },
                 // SAFETY: only pushed where the CPU has AVX-512F.
