@@ -191,7 +191,7 @@ fn quality(_: &mut Criterion) {
             let filtered = filtered_error_vector(&fields, FilteredErrorOptions::default()).unwrap();
             println!(
                 "{} {w}x{h}x{d}, seed {seed}, {budget} swaps/pixel, {assignment} assignment \
-                 passes: {seconds:.1} s, \
+                 passes: {seconds:.2} s, \
                  energy/pixel {energy:.6}, \
                  c0 spatial {:.4} temporal {:.4}, filtered error (half-spaces) {:.5}",
                 space.name(),

@@ -4,7 +4,7 @@
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 
-use super::energy::{FACTOR_LANES, SwapKernel, lane_sum, squared_distance, value_factors};
+use super::energy::{FACTOR_LANES, SwapKernel, squared_distance, value_factors, weighted_sum};
 use super::pair::Scratch;
 use super::region::{Region, region_indices};
 use super::{PassPlan, TileResult};
@@ -126,11 +126,7 @@ impl SwapKernel {
             self.inv_sigma_value_sq,
         );
         for (cost, row) in costs.iter_mut().zip(factors.chunks_exact(padded)) {
-            let entries = scratch.weight[..taps].iter().zip(&row[..taps]);
-            for (term, (&w, &f)) in scratch.term.iter_mut().zip(entries) {
-                *term = w * f64::from(f);
-            }
-            *cost = lane_sum(&scratch.term[..taps]);
+            *cost = weighted_sum(&scratch.weight[..taps], &row[..taps]);
         }
     }
 

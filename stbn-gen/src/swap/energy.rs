@@ -11,7 +11,7 @@ use std::array::from_fn;
 use crate::fastmath::{exp_neg, exp_neg_f32_lanes, inverse_cbrt_f32_lanes};
 use crate::torus::canonical;
 
-/// Partial sums of [`lane_sum`] (`f64` lanes of an AVX2 register).
+/// Partial sums of [`weighted_sum`] (`f64` lanes of an AVX2 register).
 const LANES: usize = 4;
 
 /// Padding of the neighbour buffers: the value factor loop runs whole chunks of this many
@@ -66,19 +66,28 @@ fn value_factor_lanes<const D: usize, const N: usize>(
     exp_neg_f32_lanes(distance_power::<D, N>(s).map(|x| x * inv_sigma_value_sq))
 }
 
-/// `Σ x` with four interleaved partial sums (a fixed order: deterministic).
+/// `Σ weight[k] · factor[k]` (the factor widened to `f64`) over the shorter of the two, with
+/// four interleaved partial sums (a fixed order: deterministic): the energy of one pixel's taps.
+/// Products and sums in the order of a sum over the products stored first, so the same bits.
 #[inline(always)]
-pub(super) fn lane_sum(x: &[f64]) -> f64 {
+pub(super) fn weighted_sum(weight: &[f64], factor: &[f32]) -> f64 {
+    let len = weight.len().min(factor.len());
+    let (weight, factor) = (&weight[..len], &factor[..len]);
     let mut lanes = [0.0f64; LANES];
-    let chunks = x.chunks_exact(LANES);
-    let rest = chunks.remainder();
-    for chunk in chunks {
-        for (lane, &t) in lanes.iter_mut().zip(chunk) {
-            *lane += t;
+    let whole = len / LANES * LANES;
+    for (w, f) in weight[..whole]
+        .chunks_exact(LANES)
+        .zip(factor[..whole].chunks_exact(LANES))
+    {
+        for ((lane, &w), &f) in lanes.iter_mut().zip(w).zip(f) {
+            *lane += w * f64::from(f);
         }
     }
-    rest.iter()
-        .fold((lanes[0] + lanes[1]) + (lanes[2] + lanes[3]), |s, &t| s + t)
+    let rest = weight[whole..].iter().zip(&factor[whole..]);
+    rest.fold(
+        (lanes[0] + lanes[1]) + (lanes[2] + lanes[3]),
+        |s, (&w, &f)| s + w * f64::from(f),
+    )
 }
 
 /// `‖a − b‖²` in single precision, components in order: the value distance every energy uses

@@ -5,7 +5,7 @@ use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 
 use super::energy::{
-    FACTOR_LANES, SwapKernel, lane_sum, squared_distance, value_factor, value_factors,
+    FACTOR_LANES, SwapKernel, squared_distance, value_factor, value_factors, weighted_sum,
 };
 use super::region::{Region, region_indices};
 use super::{PassPlan, TileResult};
@@ -124,8 +124,7 @@ impl SwapKernel {
             .zip(self.spatial_tap(b, a))
             .map(|(ka, kb)| (ka, taps + kb));
         scratch.drop_pair_factors();
-        scratch.weigh();
-        let after = lane_sum(&scratch.term[..scratch.len]);
+        let after = weighted_sum(&scratch.weight[..scratch.len], &scratch.factor);
         scratch.pair_energy = match scratch.pair {
             Some((_, kb)) => {
                 scratch.weight[kb] * f64::from(value_factor::<D>(squared_distance(&va, &vb), inv))
@@ -149,8 +148,9 @@ impl SwapKernel {
         scratch: &mut Scratch,
     ) {
         let (taps, count) = (scratch.taps, scratch.len);
-        let e_a = lane_sum(&scratch.term[..taps]);
-        let e_b = lane_sum(&scratch.term[taps..count]);
+        let e_a = weighted_sum(&scratch.weight[..taps], &scratch.factor);
+        let e_b = weighted_sum(&scratch.weight[taps..count], &scratch.factor[taps..]);
+        scratch.weigh();
         let (va, vb) = (region.value::<D>(ia), region.value::<D>(ib));
         for (centre, at, value, first) in [(ia, a, &va, 0), (ib, b, &vb, taps)] {
             let (index, before) = (&mut scratch.index, &mut scratch.before);
