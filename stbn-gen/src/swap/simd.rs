@@ -57,10 +57,9 @@ impl SwapKernel {
     /// [`SwapKernel::run_tile`] for this kernel's value dimension, compiled for AVX-512 or AVX2
     /// where the CPU has it. Those builds only widen the vector loops (16 or 8 `f32` lanes
     /// instead of SSE2's 4) and perform the same IEEE operations in the same order (Rust never
-    /// fuses a multiply and an add), so all give identical bits (tested). AVX2 is 1.3–1.45×
-    /// faster than SSE2 (64×64×32, 32 swaps per pixel: Vec2 1.16–1.20 s against 1.67–1.72 s,
-    /// UnitVec3 0.94 s against 1.22–1.27 s); AVX-512 is 7–16% faster again (same size, one
-    /// thread, four alternating runs, medians: Vec2 3.35 → 2.8 s, UnitVec3 2.7 → 2.5 s).
+    /// fuses a multiply and an add), so all give identical bits (tested). 64×64×32, 64 swap
+    /// passes, two threads on a Zen 4 EPYC: Vec2 2.2–2.3 s (SSE2), 1.7 s (AVX2), 1.6 s
+    /// (AVX-512); UnitVec3 1.9, 1.6 and 1.5 s.
     pub(super) fn run_tile_fastest(
         &self,
         region: &mut Region,
