@@ -32,8 +32,21 @@ const HUNGARIAN_LEN: usize = MAX_ASSIGNMENT as usize + 1;
 
 /// The permutation `out` (row `i` gets column `out[i]`) of least total `cost` (`k × k`, row
 /// major, `k ≤` [`MAX_ASSIGNMENT`]): the Hungarian method with potentials, O(k³).
-/// Deterministic. Its arrays live on the stack, at the largest size.
+/// Deterministic. Its arrays live on the stack, at the largest size. Sets of
+/// [`ASSIGNMENT_SET`] pixels run a build for that size (the same operations in the same order,
+/// with loops the compiler unrolls).
 fn min_cost_assignment(cost: &[f64], k: usize, out: &mut [usize]) {
+    if k == ASSIGNMENT_SET as usize {
+        hungarian::<{ ASSIGNMENT_SET as usize }>(cost, k, out);
+    } else {
+        hungarian::<0>(cost, k, out);
+    }
+}
+
+/// [`min_cost_assignment`] for `k` rows, or for `K` rows when `K` is not 0 (then `k == K`).
+#[inline(always)]
+fn hungarian<const K: usize>(cost: &[f64], k: usize, out: &mut [usize]) {
+    let k = if K == 0 { k } else { K };
     assert!(k < HUNGARIAN_LEN && cost.len() == k * k && out.len() == k);
     let inf = f64::INFINITY;
     let mut u = [0.0f64; HUNGARIAN_LEN];
