@@ -384,4 +384,23 @@ mod tests {
         assert_eq!(distance_power::<1, 1>([0.0]), [0.0]);
         assert_eq!(distance_power::<4, 1>([0.0]), [0.0]);
     }
+
+    /// The 16-lane steps give every entry the bits of the entry-by-entry loop.
+    #[test]
+    fn value_factors_in_lanes_match_entry_by_entry() {
+        fn check<const D: usize>() {
+            let distance: Vec<f32> = (0..4 * FACTOR_LANES)
+                .map(|i| (i as f32 * 0.37).powi(3) * 1e-2 + if i % 7 == 0 { 0.0 } else { 1e-30 })
+                .collect();
+            let (mut stepped, mut single) = (vec![0.0; distance.len()], vec![0.0; distance.len()]);
+            value_factors::<D, FACTOR_LANES>(&distance, &mut stepped, 0.7);
+            value_factors::<D, 1>(&distance, &mut single, 0.7);
+            let bits = |v: &[f32]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&stepped), bits(&single), "D = {D}");
+        }
+        check::<1>();
+        check::<2>();
+        check::<3>();
+        check::<4>();
+    }
 }
