@@ -1,13 +1,12 @@
 //! The energy of vector masks ([module docs](super)): the truncated pair weights
 //! ([`SwapKernel`]), the value factor every energy goes through, and energies from scratch.
 
+use std::array::from_fn;
 use std::collections::BTreeMap;
 
 use rayon::prelude::*;
 
 use super::SwapConfig;
-use std::array::from_fn;
-
 use crate::fastmath::{exp_neg, exp_neg_f32_lanes, inverse_cbrt_f32_lanes};
 use crate::torus::canonical;
 
@@ -68,7 +67,6 @@ fn value_factor_lanes<const D: usize, const N: usize>(
 
 /// `Σ weight[k] · factor[k]` (the factor widened to `f64`) over the shorter of the two, with
 /// four interleaved partial sums (a fixed order: deterministic): the energy of one pixel's taps.
-/// Products and sums in the order of a sum over the products stored first, so the same bits.
 #[inline(always)]
 pub(super) fn weighted_sum(weight: &[f64], factor: &[f32]) -> f64 {
     let len = weight.len().min(factor.len());
