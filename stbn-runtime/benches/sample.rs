@@ -277,6 +277,19 @@ fn bench_vector_frame<V: Copy + Default + VectorOutput, S: SampleRead<V>>(
             mask.fill_vector_row(0, y, f, row);
         },
     );
+    // Rows filled a mask width at a time: each call decodes every voxel it writes (a longer
+    // row copies its first period), so this is the decode's own speed.
+    let width = header.width as usize;
+    bench_rows(
+        &mut group,
+        "fill_vector_row_by_width",
+        V::default(),
+        |y, f, row: &mut [V]| {
+            for (k, part) in row.chunks_mut(width).enumerate() {
+                mask.fill_vector_row((k * width) as i32, y, f, part);
+            }
+        },
+    );
     let view = mask.offset(black_box(SampleOffset {
         x: 77,
         y: -13,

@@ -253,7 +253,7 @@ impl<'a> Stbn<'a> {
 
     /// Fills `out[i]` with `sample(x0 + i, y, frame)` for every `i` (the x sum
     /// wraps exactly, without `i32` overflow); `out` may be longer than the width,
-    /// in which case the row repeats.
+    /// in which case the row repeats: one period is decoded and copied over the rest.
     pub fn fill_row(&self, x0: i32, y: i32, frame: u32, out: &mut [f32]) {
         self.fill_row_at(x0, y, frame, SampleOffset::ZERO, out);
     }
@@ -314,12 +314,14 @@ impl<'a> Stbn<'a> {
         self.frame_runs(frame, o, out, |first, run| self.convert_run(first, run))
     }
 
-    /// Splits the row of `out.len()` voxels from `(x0 + o.x, y + o.y, frame + o.frame)` (x
-    /// wrapping, so the row may repeat) into runs of voxels contiguous in the data, and calls
-    /// `run(first, part)` for each: `first` is the channel-0 element index of the run's first
-    /// voxel and `part` the matching part of `out`.
+    /// Fills the row of `out.len()` voxels from `(x0 + o.x, y + o.y, frame + o.frame)` (x
+    /// wrapping, so the row may repeat): splits its first `width` voxels into runs contiguous in
+    /// the data (one or two) and calls `run(first, part)` for each, `first` the channel-0 element
+    /// index of the run's first voxel and `part` the matching part of `out`; then copies those
+    /// `width` values over the rest of `out`, which repeats them (a 1080p row of a 128-wide mask
+    /// decodes 128 voxels, not 1920).
     #[inline(always)]
-    pub(crate) fn row_runs<T>(
+    pub(crate) fn row_runs<T: Copy>(
         &self,
         x0: i32,
         y: i32,
@@ -331,14 +333,15 @@ impl<'a> Stbn<'a> {
         let row = self.z.wrap_unsigned(frame, o.frame) * self.frame_stride
             + self.y.wrap_signed(y, o.y) * self.row_stride;
         let width = self.header.width as usize;
-        let mut x = self.x.wrap_signed(x0, o.x);
-        let mut rest = out;
-        while !rest.is_empty() {
-            let len = (width - x).min(rest.len());
-            let (head, tail) = core::mem::take(&mut rest).split_at_mut(len);
-            run(row + x * self.channels, head);
-            rest = tail;
-            x = 0;
+        let x = self.x.wrap_signed(x0, o.x);
+        let (period, repeats) = out.split_at_mut(width.min(out.len()));
+        let (head, tail) = period.split_at_mut((width - x).min(period.len()));
+        run(row + x * self.channels, head);
+        if !tail.is_empty() {
+            run(row, tail);
+        }
+        for part in repeats.chunks_mut(width) {
+            part.copy_from_slice(&period[..part.len()]);
         }
     }
 
@@ -347,7 +350,7 @@ impl<'a> Stbn<'a> {
     /// [`row_runs`](Self::row_runs) and returns that count: one run when `o` shifts only the
     /// frame, row by row otherwise.
     #[inline(always)]
-    pub(crate) fn frame_runs<T>(
+    pub(crate) fn frame_runs<T: Copy>(
         &self,
         frame: u32,
         o: SampleOffset,

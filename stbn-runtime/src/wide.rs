@@ -7,10 +7,10 @@
 //! fuses a multiply and an add, and `sqrtps` is correctly rounded at every width), so they give
 //! the same bits (tested against the per-sample reads).
 //!
-//! The `unsafe` here has a measured reason: `fill_vector_row` over a 1080p frame of a
-//! 128×128×64 mask, built without and with AVX2 in one sitting (Zen 4): octahedral Unorm16 3.5
-//! against 2.6 ms, signed Unorm8 3.9 against 2.4 ms, Vec2 Unorm8 0.75 against 0.34 ms (there
-//! with the one-pass loop only the AVX2 build runs).
+//! The `unsafe` here has a measured reason: decoding a 1080p frame's worth of voxels of a
+//! 128×128×64 mask (`fill_vector_row` a mask width at a time), built without and with AVX2 in
+//! one sitting (Zen 4): octahedral Unorm16 3.5 against 2.6 ms, signed Unorm8 3.9 against 2.4 ms,
+//! Vec2 Unorm8 0.75 against 0.34 ms (there with the one-pass loop only the AVX2 build runs).
 
 /// Whether this CPU runs AVX2 code and the operating system saves its registers: decided once
 /// per process (`cpuid` and `xgetbv`, what `std::is_x86_feature_detected!` checks).
