@@ -7,13 +7,14 @@
 //! `fill_frame`, and `plain_loop`: a hand-written loop that decodes the frame's bytes straight
 //! from the payload (no wrapping, no header), the floor a general sampler is measured against.
 //!
-//! Vector masks (groups `vec2_<enc>_1080p`, `unitvec3_oct_<enc>_1080p`,
+//! Vector masks (groups `vec2_<enc>_1080p`, `vec4_<enc>_1080p`, `unitvec3_oct_<enc>_1080p`,
 //! `unitvec3_signed_<enc>_1080p`): one 1920×1080 frame per iteration, the mask tiled over it,
 //! row by row into a row buffer: `hand_written` (the voxel index by masks, the bytes decoded with
 //! std's `sqrt`), `hand_written_crate_decode` (octahedral only: the same loop calling
-//! `octahedral_decode`, the samplers' own numerics), `sample` (`sample_vec2` / `sample_vec3` per
-//! pixel), `sample_vector`, `fill_vector_row`, and `sample` / `fill_vector_row` through an offset
-//! view.
+//! `octahedral_decode`, the samplers' own numerics), `sample` (`sample_vec2` / `sample_vec3` /
+//! `sample_vec4` per pixel), `sample_vector`, `fill_vector_row` (whole rows: one period decoded,
+//! then copied), `fill_vector_row_by_width` (a mask width per call: every voxel decoded), and
+//! `sample` / `fill_vector_row` through an offset view.
 //!
 //! `cargo bench -p stbn-runtime --bench sample -- --warm-up-time 1 --measurement-time 3`
 //! (`-- _1080p` for the vector groups alone)
@@ -21,7 +22,7 @@
 use std::hint::black_box;
 
 use criterion::{BenchmarkGroup, Criterion, Throughput, criterion_group, criterion_main};
-use stbn_runtime::glam::{Vec2, Vec3};
+use stbn_runtime::glam::{Vec2, Vec3, Vec4};
 use stbn_runtime::{
     Compression, Encoding, MaskHeader, OffsetStbn, SampleOffset, Space, Stbn, ValueMap,
     VectorOutput, VectorSample, octahedral_decode,
@@ -352,11 +353,20 @@ trait SampleRead<V> {
 struct ReadVec2;
 /// [`OffsetStbn::sample_vec3`].
 struct ReadVec3;
+/// [`OffsetStbn::sample_vec4`].
+struct ReadVec4;
 
 impl SampleRead<Vec2> for ReadVec2 {
     #[inline(always)]
     fn read(view: &OffsetStbn<'_>, x: i32, y: i32, frame: u32) -> Vec2 {
         view.sample_vec2(x, y, frame)
+    }
+}
+
+impl SampleRead<Vec4> for ReadVec4 {
+    #[inline(always)]
+    fn read(view: &OffsetStbn<'_>, x: i32, y: i32, frame: u32) -> Vec4 {
+        view.sample_vec4(x, y, frame)
     }
 }
 
@@ -402,6 +412,14 @@ fn vector_sampling(c: &mut Criterion) {
             ReadVec2,
             |d, i| Vec2::new(u(d, i), u(d, i + 1)),
             None::<fn(&[u8], usize) -> Vec2>,
+        );
+        bench_vector_frame(
+            c,
+            "vec4",
+            header(4, encoding, Space::Vec, ValueMap::Unit),
+            ReadVec4,
+            |d, i| Vec4::new(u(d, i), u(d, i + 1), u(d, i + 2), u(d, i + 3)),
+            None::<fn(&[u8], usize) -> Vec4>,
         );
     }
 }

@@ -437,9 +437,9 @@ impl Stbn<'_> {
     /// there, for an `out` of [`Vec2`] / [`Vec3`] / [`Vec4`] / [`VectorSample`]. The x sum
     /// wraps exactly, so `out` may be longer than the width (the row repeats).
     ///
-    /// Decodes runs of contiguous voxels in blocks, 2.5–7× faster than a call per voxel; a row
-    /// longer than the width decodes one period and copies it over the rest (a 1080p row of a
-    /// 128-wide mask: 13–24× faster than a call per pixel, BENCHMARKS.md).
+    /// Decodes runs of contiguous voxels in blocks, 2.3–6.4× faster than a call per voxel; a row
+    /// longer than the width decodes one period and copies it over the rest (1080p rows of a
+    /// 128-wide mask: 3.8–26× faster than a call per pixel; BENCHMARKS.md, "Runtime sampling").
     pub fn fill_vector_row<V: VectorOutput>(&self, x0: i32, y: i32, frame: u32, out: &mut [V]) {
         self.fill_vector_row_at(x0, y, frame, SampleOffset::ZERO, out);
     }
