@@ -188,17 +188,41 @@ pub(crate) struct StratifiedSampler<'a> {
 }
 
 impl StratifiedSampler<'_> {
+    /// Parameters of each value: the dimension of the unit cube the space's stratified sets are
+    /// mapped from (`dims` for [`SampleSpace::Vec`], 1 for the sign of `UnitVec1` and the angle of
+    /// `UnitVec2`, 2 for spheres, hemispheres and images).
+    pub(crate) fn parameters(&self) -> usize {
+        match self.space {
+            SampleSpace::Vec { dims } => usize::from(*dims),
+            SampleSpace::UnitVec1 | SampleSpace::UnitVec2 => 1,
+            _ => 2,
+        }
+    }
+
     /// `count` values (`count · dims()` components, value `i` at `i·dims()..`) forming one
     /// stratified sample set of the space ([`SampleSpace`]'s docs), in a random order: the initial
     /// state of one slice. Deterministic for a given `rng` state.
     pub(crate) fn slice(&self, count: usize, rng: &mut ChaCha8Rng) -> Vec<f32> {
+        let (mut values, _) = self.slice_with_parameters(count, rng);
+        shuffle_values(&mut values, self.space.dims(), rng);
+        values
+    }
+
+    /// The values [`StratifiedSampler::slice`] shuffles, in the lattice's order, and the point
+    /// of `[0, 1)^`[`parameters`](StratifiedSampler::parameters) each is mapped from (value `i`
+    /// from parameters `i·parameters()..`; for `UnitVec1`, `(i + ½)/count`, the `+1`s first).
+    pub(crate) fn slice_with_parameters(
+        &self,
+        count: usize,
+        rng: &mut ChaCha8Rng,
+    ) -> (Vec<f32>, Vec<f64>) {
         let space = self.space;
-        let dims = space.dims();
-        let mut values: Vec<f32> = Vec::with_capacity(count * dims);
-        match (space, &self.pixels) {
+        let mut values: Vec<f32> = Vec::with_capacity(count * space.dims());
+        let parameters = match (space, &self.pixels) {
             (SampleSpace::Vec { dims }, _) => {
                 let points = latinised_lattice(count, usize::from(*dims), rng);
                 values.extend(points.iter().map(|&c| below_one(c)));
+                points
             }
             (SampleSpace::UnitVec1, _) => {
                 let odd_sign = if rng.next_u32() & 1 == 0 { 1.0 } else { -1.0 };
@@ -211,12 +235,17 @@ impl StratifiedSampler<'_> {
                         -1.0
                     }
                 }));
+                (0..count)
+                    .map(|i| (i as f64 + 0.5) / count as f64)
+                    .collect()
             }
             (SampleSpace::UnitVec2, _) => {
-                for a in latinised_lattice(count, 1, rng) {
+                let angles = latinised_lattice(count, 1, rng);
+                for &a in &angles {
                     let (sin, cos) = (std::f64::consts::TAU * a).sin_cos();
                     values.extend([cos as f32, sin as f32]);
                 }
+                angles
             }
             (SampleSpace::UnitVec3 | SampleSpace::UniformHemisphere, _) => {
                 let sphere = *space == SampleSpace::UnitVec3;
@@ -230,6 +259,7 @@ impl StratifiedSampler<'_> {
                     };
                     values.extend(unit_from_z_phi(z, ab[1]));
                 }
+                points
             }
             (SampleSpace::CosineHemisphere, _) => {
                 let points = latinised_lattice(count, 2, rng);
@@ -237,25 +267,27 @@ impl StratifiedSampler<'_> {
                     // Malley: uniform in the unit disc (r² = a), lifted to the hemisphere.
                     values.extend(unit_from_z_phi((1.0 - ab[0]).sqrt(), ab[1]));
                 }
+                points
             }
             (SampleSpace::ImagePoints(image), Some(sampler)) => {
                 let points = latinised_lattice(count, 2, rng);
                 for ab in points.chunks_exact(2) {
                     values.extend(image.sample_point(sampler, ab[0], ab[1]));
                 }
+                points
             }
             (SampleSpace::EnvironmentDirections(image), Some(sampler)) => {
                 let points = latinised_lattice(count, 2, rng);
                 for ab in points.chunks_exact(2) {
                     values.extend(image.sample_direction(sampler, ab[0], ab[1]));
                 }
+                points
             }
             (SampleSpace::ImagePoints(_) | SampleSpace::EnvironmentDirections(_), None) => {
                 unreachable!("image spaces get their sampler in stratified_sampler")
             }
-        }
-        shuffle_values(&mut values, dims, rng);
-        values
+        };
+        (values, parameters)
     }
 }
 
@@ -268,18 +300,26 @@ const HILBERT_BITS: u32 = 16;
 /// sorting a sample set by this key and handing it out in the order of a scalar blue-noise mask's
 /// ranks places similar values far apart.
 pub(crate) fn hilbert_key(space: &SampleSpace, value: &[f32]) -> u64 {
-    let dims = space.dims();
     let (lo, hi) = match space {
         SampleSpace::Vec { .. } | SampleSpace::ImagePoints(_) => (0.0, 1.0),
         _ => (-1.0, 1.0),
     };
+    let mut unit = [0.0f64; 4];
+    for (t, &v) in unit.iter_mut().zip(&value[..space.dims()]) {
+        *t = (f64::from(v) - lo) / (hi - lo);
+    }
+    unit_hilbert_key(&unit[..space.dims()])
+}
+
+/// The position of the point `unit` of `[0, 1]^d` (`d ≤ 4`, coordinates clamped to the cube)
+/// along a Hilbert curve through it, 16 bits per axis.
+pub(crate) fn unit_hilbert_key(unit: &[f64]) -> u64 {
     let scale = f64::from(1u32 << HILBERT_BITS);
     let mut axes = [0u32; 4];
-    for (axis, &v) in axes.iter_mut().zip(&value[..dims]) {
-        let t = (f64::from(v) - lo) / (hi - lo);
+    for (axis, &t) in axes.iter_mut().zip(unit) {
         *axis = (t * scale).clamp(0.0, scale - 1.0) as u32;
     }
-    hilbert_index(&mut axes[..dims], HILBERT_BITS)
+    hilbert_index(&mut axes[..unit.len()], HILBERT_BITS)
 }
 
 /// The Hilbert index of the point `axes` (each `< 2^bits`, `dims · bits ≤ 64`): Skilling's

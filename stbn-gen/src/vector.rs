@@ -4,7 +4,8 @@
 //! Each slice starts as a stratified sample set of the [`SampleSpace`]
 //! ([`SampleSpace::stratified_sampler`]), arranged as [`InitialArrangement`] says: by default
 //! sorted along a Hilbert curve of value space and handed out in the rank order of a scalar STBN
-//! mask, so similar values start far apart in space and time. The swap optimiser
+//! mask, so similar values start far apart in space and time (for Vec2, each component follows
+//! that mask read at its own offset). The swap optimiser
 //! ([`SwapOptimizer`]) then permutes the values within each slice to lower the spatiotemporal
 //! energy of the paper's §4.2. A slice's multiset of values never changes, so every frame on its
 //! own stays a stratified sample set of the space.
@@ -15,7 +16,7 @@ use rayon::prelude::*;
 
 use crate::observe::Observer;
 use crate::rng::{self, keyed_rng};
-use crate::space::{SampleSpace, hilbert_key};
+use crate::space::{SampleSpace, hilbert_key, unit_hilbert_key};
 use crate::spec::{MaskSpec, SpecError};
 use crate::swap::{ASSIGNMENT_SET, SwapConfig, SwapOptimizer};
 use crate::trace::{EnergyTrace, TracePoint};
@@ -32,14 +33,38 @@ pub enum InitialArrangement {
     /// the curve (one region of value space) form a blue-noise set in space and time. A much
     /// better start than white noise for the price of one scalar mask (BENCHMARKS.md).
     ScalarStbn,
+    /// Every parameter of the space's stratified set (the point of the unit square or cube each
+    /// value is mapped from: both components of a `Vec2`, the angle of a `UnitVec2`, the two
+    /// area-preserving coordinates of a sphere, hemisphere or image) takes its rank from the
+    /// scalar STBN mask `MaskSpec::new(width, height, depth, seed)`, parameter `c` read at the
+    /// `c`-th R2 offset (`c = 0` in place, as [`InitialArrangement::ScalarStbn`] reads it); the
+    /// values go to the pixels whose rank points are nearest along a Hilbert curve of the unit
+    /// cube. So each parameter read alone starts close to a scalar STBN mask, in space and in
+    /// time, and the pixels' sequences start far bluer than from one rank per pixel
+    /// (BENCHMARKS.md).
+    ScalarStbnPerAxis,
 }
 
 impl InitialArrangement {
-    /// A short lowercase name: `random` or `scalar_stbn`.
+    /// The start [`VectorSpec::new`] picks for `space`: [`InitialArrangement::ScalarStbnPerAxis`]
+    /// for two-component [`SampleSpace::Vec`] masks (each component is one parameter, so each
+    /// starts close to a scalar STBN mask), [`InitialArrangement::ScalarStbn`] for the rest. On
+    /// spheres and hemispheres a component mixes both parameters, and the per-axis start measured
+    /// a higher temporal low band there; on `Vec3` and `Vec4` it measured a lower temporal low
+    /// band but a higher filtered error or spatial low band (BENCHMARKS.md, "Vector masks").
+    pub fn default_for(space: &SampleSpace) -> InitialArrangement {
+        match space {
+            SampleSpace::Vec { dims: 2 } => InitialArrangement::ScalarStbnPerAxis,
+            _ => InitialArrangement::ScalarStbn,
+        }
+    }
+
+    /// A short lowercase name: `random`, `scalar_stbn` or `scalar_stbn_per_axis`.
     pub fn name(self) -> &'static str {
         match self {
             InitialArrangement::Random => "random",
             InitialArrangement::ScalarStbn => "scalar_stbn",
+            InitialArrangement::ScalarStbnPerAxis => "scalar_stbn_per_axis",
         }
     }
 }
@@ -84,7 +109,7 @@ pub struct VectorSpec {
     /// keeps offsets up to `σi √ln 200 = 2.3 σi` (4.4 pixels at σi 1.9: 56 same-slice and 8
     /// same-position neighbours).
     pub kernel_tolerance: f64,
-    /// How the slices start ([`InitialArrangement::ScalarStbn`] by default).
+    /// How the slices start ([`InitialArrangement::default_for`] the space by default).
     pub initial_arrangement: InitialArrangement,
 }
 
@@ -124,13 +149,13 @@ impl VectorSpec {
             height,
             depth,
             seed,
+            initial_arrangement: InitialArrangement::default_for(&space),
             space,
             sigma_image: Self::DEFAULT_SIGMA_IMAGE,
             sigma_value: Self::DEFAULT_SIGMA_VALUE,
             swaps_per_pixel: Self::DEFAULT_SWAPS_PER_PIXEL,
             assignment_passes: Self::DEFAULT_ASSIGNMENT_PASSES,
             kernel_tolerance: Self::DEFAULT_KERNEL_TOLERANCE,
-            initial_arrangement: InitialArrangement::ScalarStbn,
         }
     }
 
@@ -172,7 +197,9 @@ impl VectorSpec {
     pub fn bytes_per_pixel(&self) -> u64 {
         let optimiser = (4 * self.space.dims() as u64 + 8) * 8 / 5 + 4;
         match self.initial_arrangement {
-            InitialArrangement::ScalarStbn => optimiser.max(MaskSpec::BYTES_PER_PIXEL + 4),
+            InitialArrangement::ScalarStbn | InitialArrangement::ScalarStbnPerAxis => {
+                optimiser.max(MaskSpec::BYTES_PER_PIXEL + 4)
+            }
             InitialArrangement::Random => optimiser,
         }
     }
@@ -411,6 +438,9 @@ pub(crate) fn generate(
     let size = (spec.width, spec.height, spec.depth);
     let values = arranged_start(size, spec.seed, &spec.space, spec.initial_arrangement)?;
     let mut optimizer = SwapOptimizer::new(spec, values);
+    if spec.initial_arrangement == InitialArrangement::ScalarStbnPerAxis {
+        optimizer = optimizer.without_partner_ramp();
+    }
     let mut trace = EnergyTrace {
         points: vec![TracePoint {
             swaps_attempted: 0,
@@ -461,22 +491,42 @@ pub(crate) fn arranged_start(
     let n = width as usize * height as usize;
     let ranks = match arrangement {
         InitialArrangement::Random => None,
-        InitialArrangement::ScalarStbn => Some(crate::generate(
-            &MaskSpec::new(width, height, depth, seed),
-            crate::Observer::default(),
-        )?),
+        InitialArrangement::ScalarStbn | InitialArrangement::ScalarStbnPerAxis => {
+            Some(crate::generate(
+                &MaskSpec::new(width, height, depth, seed),
+                crate::Observer::default(),
+            )?)
+        }
     };
     let mut values = vec![0.0f32; n * depth as usize * dims];
     let sampler = space.stratified_sampler();
+    let axis_offsets: Vec<(usize, usize)> = (0..sampler.parameters())
+        .map(|c| r2_offset(c, width, height))
+        .collect();
     values
         .par_chunks_mut(n * dims)
         .enumerate()
         .for_each(|(z, slice)| {
             let mut rng = keyed_rng(seed, rng::VECTOR.init, z as u64, 0);
-            let set = sampler.slice(n, &mut rng);
             match &ranks {
-                None => slice.copy_from_slice(&set),
+                Some(mask) if arrangement == InitialArrangement::ScalarStbnPerAxis => {
+                    let (set, parameters) = sampler.slice_with_parameters(n, &mut rng);
+                    let ranks = mask.slice(z as u32);
+                    let targets = per_axis_targets(ranks, (width, height), &axis_offsets);
+                    let mut order: Vec<(u64, u32)> = parameters
+                        .chunks_exact(axis_offsets.len())
+                        .enumerate()
+                        .map(|(i, u)| (unit_hilbert_key(u), i as u32))
+                        .collect();
+                    order.sort_unstable();
+                    for (&(_, pixel), &(_, from)) in targets.iter().zip(&order) {
+                        let (pixel, from) = (pixel as usize * dims, from as usize * dims);
+                        slice[pixel..pixel + dims].copy_from_slice(&set[from..from + dims]);
+                    }
+                }
+                None => slice.copy_from_slice(&sampler.slice(n, &mut rng)),
                 Some(mask) => {
+                    let set = sampler.slice(n, &mut rng);
                     // Sorted along the Hilbert curve, handed out in the scalar mask's rank order.
                     let mut order: Vec<(u64, u32)> = set
                         .chunks_exact(dims)
@@ -493,4 +543,41 @@ pub(crate) fn arranged_start(
             }
         });
     Ok(values)
+}
+
+/// The offset `(dx, dy)` of the `c`-th point of the R2 sequence `(c/g, c/g²)` (`g` the plastic
+/// number, as the runtime's `Stbn::dimension` offsets sample dimensions), scaled to the slice and
+/// rounded: `(0, 0)` for `c = 0`.
+fn r2_offset(c: usize, width: u32, height: u32) -> (usize, usize) {
+    const A1: f64 = 0.754_877_666_246_692_7;
+    const A2: f64 = 0.569_840_290_998_053_2;
+    let scaled = |a: f64, size: u32| {
+        ((c as f64 * a).fract() * f64::from(size)).round() as usize % size as usize
+    };
+    (scaled(A1, width), scaled(A2, height))
+}
+
+/// Each pixel's rank point of [`InitialArrangement::ScalarStbnPerAxis`] as `(Hilbert key,
+/// pixel)`, sorted: coordinate `c` is `(rank + ½) / n` of the pixel `axis_offsets[c]` further
+/// (toroidally) in the slice's `ranks` (`n = width · height`).
+fn per_axis_targets(
+    ranks: &[u32],
+    (width, height): (u32, u32),
+    axis_offsets: &[(usize, usize)],
+) -> Vec<(u64, u32)> {
+    let (w, h, n) = (width as usize, height as usize, ranks.len());
+    let inv = 1.0 / n as f64;
+    let mut targets: Vec<(u64, u32)> = (0..n)
+        .map(|p| {
+            let (x, y) = (p % w, p / w);
+            let mut point = [0.0f64; 4];
+            for (t, &(dx, dy)) in point.iter_mut().zip(axis_offsets) {
+                let q = (y + dy) % h * w + (x + dx) % w;
+                *t = (f64::from(ranks[q]) + 0.5) * inv;
+            }
+            (unit_hilbert_key(&point[..axis_offsets.len()]), p as u32)
+        })
+        .collect();
+    targets.sort_unstable();
+    targets
 }

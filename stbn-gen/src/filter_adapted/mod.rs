@@ -216,7 +216,9 @@ impl FilterAdaptedSpec {
             ValueKernel::Product => 4 + 12 * dims + 16,
         };
         match self.initial_arrangement {
-            InitialArrangement::ScalarStbn => optimiser.max(MaskSpec::BYTES_PER_PIXEL + 4),
+            InitialArrangement::ScalarStbn | InitialArrangement::ScalarStbnPerAxis => {
+                optimiser.max(MaskSpec::BYTES_PER_PIXEL + 4)
+            }
             InitialArrangement::Random => optimiser,
         }
     }
@@ -496,7 +498,8 @@ pub(crate) fn generate_scalar(
     let (w, h, d) = (spec.width, spec.height, spec.depth);
     let n = spec.slice_pixels() as usize;
     let perm: Vec<u32> = match spec.initial_arrangement {
-        InitialArrangement::ScalarStbn => {
+        // One value per pixel: one axis, so both arrangements are the scalar mask's ranks.
+        InitialArrangement::ScalarStbn | InitialArrangement::ScalarStbnPerAxis => {
             generate(&MaskSpec::new(w, h, d, spec.seed), Observer::default())?
                 .ranks()
                 .to_vec()

@@ -145,18 +145,27 @@ pub const TILE_FRAMES: u32 = 8;
 
 /// Candidates a proposing pixel draws from its tile once the optimiser is under way; it proposes
 /// the one whose value is nearest its own ([module docs](self)). Pass `p` draws
-/// `min(1 + p / 2, PARTNER_CANDIDATES)` ([`partner_candidates`]): a uniform partner first.
+/// `min(1 + p / 2, PARTNER_CANDIDATES)` ([`partner_candidates`]): a uniform partner first,
+/// unless the start is already close ([`crate::InitialArrangement::ScalarStbnPerAxis`]).
 pub const PARTNER_CANDIDATES: u32 = 16;
 
-/// The candidates pass `pass` draws per proposal: one more every two passes, up to `cap`.
+/// The candidates pass `pass` draws per proposal: with `ramp`, one more every two passes, up to
+/// `cap`; without, `cap` from the first pass.
 ///
 /// Early passes make the large moves a poor start needs, later ones the fine ones. From white
 /// noise (32×32×16 Vec1, 16 passes) 16 candidates from the first pass left the spatial low band
-/// at 0.397 against 0.071 for uniform partners; the ramp reached 0.069. From the default start it
-/// also ends lower than 16 from the first pass (64×64×32, 128 passes: Vec2 3.27557 against
-/// 3.27619, UnitVec3 1.60074 against 1.60173).
-pub fn partner_candidates(pass: u64, cap: u32) -> u32 {
-    (1 + pass / 2).min(u64::from(cap.max(1))) as u32
+/// at 0.397 against 0.071 for uniform partners; the ramp reached 0.069. From the Hilbert-order
+/// start ([`crate::InitialArrangement::ScalarStbn`]) it also ends lower than 16 from the first
+/// pass (64×64×32, 128 passes: Vec2 3.27557 against 3.27619, UnitVec3 1.60074 against 1.60173).
+/// The per-axis start is close enough that uniform partners only undo it: BENCHMARKS.md ("Vector
+/// masks").
+pub fn partner_candidates(pass: u64, cap: u32, ramp: bool) -> u32 {
+    let cap = cap.max(1);
+    if ramp {
+        (1 + pass / 2).min(u64::from(cap)) as u32
+    } else {
+        cap
+    }
 }
 
 /// What every tile of one pass needs besides its coordinates and random stream.
@@ -207,6 +216,8 @@ pub struct SwapOptimizer {
     accepted: u64,
     /// Most partner candidates a proposal draws.
     partner_candidates: u32,
+    /// Whether the candidates ramp up from one ([`partner_candidates`]).
+    partner_ramp: bool,
 }
 
 impl SwapOptimizer {
@@ -238,7 +249,15 @@ impl SwapOptimizer {
             attempted: 0,
             accepted: 0,
             partner_candidates: PARTNER_CANDIDATES,
+            partner_ramp: true,
         }
+    }
+
+    /// The same optimiser drawing [`PARTNER_CANDIDATES`] from the first pass, for a start that
+    /// needs no large moves ([`partner_candidates`]).
+    pub fn without_partner_ramp(mut self) -> SwapOptimizer {
+        self.partner_ramp = false;
+        self
     }
 
     /// The same optimiser drawing at most `count` partner candidates per proposal (1: a uniform
@@ -408,7 +427,11 @@ impl SwapOptimizer {
         };
         let plan = PassPlan {
             fraction: fraction.clamp(0.0, 1.0),
-            partner_candidates: partner_candidates(pass, self.partner_candidates),
+            partner_candidates: partner_candidates(
+                pass,
+                self.partner_candidates,
+                self.partner_ramp,
+            ),
             assignment,
         };
         schedule::run_pass(self, &layout, key, &plan, after_colour);

@@ -161,7 +161,11 @@ fn extreme_shapes_generate_and_keep_their_multisets() {
             SampleSpace::UnitVec1,
             SampleSpace::CosineHemisphere,
         ] {
-            for arrangement in [InitialArrangement::Random, InitialArrangement::ScalarStbn] {
+            for arrangement in [
+                InitialArrangement::Random,
+                InitialArrangement::ScalarStbn,
+                InitialArrangement::ScalarStbnPerAxis,
+            ] {
                 let spec = VectorSpec {
                     initial_arrangement: arrangement,
                     ..VectorSpec::new(w, h, d, 4, space.clone()).with_swaps_per_pixel(2.0)

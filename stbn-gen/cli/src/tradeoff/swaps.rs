@@ -274,7 +274,8 @@ pub fn run(plan: &Plan) -> Result<Section> {
              .with_swaps_per_pixel(b).with_assignment_passes(0), observer)` for each budget b \
              (swaps alone; the observer records the energy trace), other fields at their \
              defaults \
-             (σi 1.9, σs 1.0, tolerance 5·10⁻³, initial arrangement from a scalar STBN mask). \
+             (σi 1.9, σs 1.0, tolerance 5·10⁻³, initial arrangement from a scalar STBN mask: \
+             `InitialArrangement::default_for` the space). \
              *Energy* is the optimiser's own objective (the sum over interacting pixel pairs of \
              the paper's §4.2 energy; lower is better) at the end of the run. Pass k of a run \
              draws its proposals from streams keyed by (seed, k), so a run of b whole swaps per \
@@ -285,11 +286,12 @@ pub fn run(plan: &Plan) -> Result<Section> {
              \"above … final\" columns. Quality columns: the first component of each value, \
              mapped to [0, 1] ((x + 1)/2 for UnitVec3). They are not the optimiser's \
              objective, and the step integrand [x < ½] of the MC and EMA columns is a special \
-             case here: the initial arrangement hands out values in Hilbert-curve order by the \
-             ranks of a scalar STBN mask, and the first half of that curve is the half \
-             x < ½ of the value box, so at budget 0 this integrand converges as the scalar \
-             mask of the same size does (compare section 1), and swaps, which lower the energy \
-             of the whole vector, give some of that back. The rows with assignment passes run \
+             case here: the initial arrangement makes the first component follow the ranks of a scalar \
+             STBN mask (Vec2) or hands out values in Hilbert-curve order by those ranks, the \
+             first half of that curve being the half x < ½ of the value box (UnitVec3), so at \
+             budget 0 this integrand converges as the scalar mask of the same size does \
+             (compare section 1), and swaps, which lower the energy of the whole vector, give \
+             some of that back. The rows with assignment passes run \
              {} swaps per pixel and then a passes (`.with_assignment_passes(a)`); their trace \
              is one run of {} passes, and their \"above … final\" columns compare with the \
              swap-only long run, so a negative value beats it. Their accepted swaps count each \
