@@ -5,13 +5,14 @@
 //! ([`SampleSpace::stratified_sampler`]), arranged as [`InitialArrangement`] says: by default
 //! sorted along a Hilbert curve of value space and handed out in the rank order of a scalar STBN
 //! mask, so similar values start far apart in space and time (for Vec2, each component follows
-//! that mask read at its own offset). The swap optimiser
+//! a scalar STBN mask of its own). The swap optimiser
 //! ([`SwapOptimizer`]) then permutes the values within each slice to lower the spatiotemporal
 //! energy of the paper's §4.2. A slice's multiset of values never changes, so every frame on its
 //! own stays a stratified sample set of the space.
 
 use std::fmt;
 
+use rand::Rng;
 use rayon::prelude::*;
 
 use crate::observe::Observer;
@@ -35,13 +36,15 @@ pub enum InitialArrangement {
     ScalarStbn,
     /// Every parameter of the space's stratified set (the point of the unit square or cube each
     /// value is mapped from: both components of a `Vec2`, the angle of a `UnitVec2`, the two
-    /// area-preserving coordinates of a sphere, hemisphere or image) takes its rank from the
-    /// scalar STBN mask `MaskSpec::new(width, height, depth, seed)`, parameter `c` read at the
-    /// `c`-th R2 offset (`c = 0` in place, as [`InitialArrangement::ScalarStbn`] reads it); the
-    /// values go to the pixels whose rank points are nearest along a Hilbert curve of the unit
-    /// cube. So each parameter read alone starts close to a scalar STBN mask, in space and in
-    /// time, and the pixels' sequences start far bluer than from one rank per pixel
-    /// (BENCHMARKS.md).
+    /// area-preserving coordinates of a sphere, hemisphere or image) takes its per-slice rank from
+    /// its own scalar STBN mask: parameter 0 from `MaskSpec::new(width, height, depth, seed)` (the
+    /// mask [`InitialArrangement::ScalarStbn`] uses), parameter `c` from one of a seed derived
+    /// from `(seed, c)`; the values go to the pixels whose rank points are nearest along a Hilbert
+    /// curve of the unit cube. So each parameter read alone starts close to a scalar STBN mask, in
+    /// space and in time, and the pixels' sequences start far bluer than from one rank per pixel
+    /// (BENCHMARKS.md). Independent masks, not one mask at offsets: a mask read at an offset would
+    /// tie one component to another at that offset (0.81 correlation after optimisation for the
+    /// runtime's dimension-1 offset), which sample dimensions read there would inherit.
     ScalarStbnPerAxis,
 }
 
@@ -50,8 +53,8 @@ impl InitialArrangement {
     /// for two-component [`SampleSpace::Vec`] masks (each component is one parameter, so each
     /// starts close to a scalar STBN mask), [`InitialArrangement::ScalarStbn`] for the rest. On
     /// spheres and hemispheres a component mixes both parameters, and the per-axis start measured
-    /// a higher temporal low band there; on `Vec3` and `Vec4` it measured a lower temporal low
-    /// band but a higher filtered error or spatial low band (BENCHMARKS.md, "Vector masks").
+    /// a higher temporal low band there; on `Vec3` and `Vec4`, a lower temporal low band but a
+    /// filtered error and spatial low band no better (BENCHMARKS.md, "Design decisions").
     pub fn default_for(space: &SampleSpace) -> InitialArrangement {
         match space {
             SampleSpace::Vec { dims: 2 } => InitialArrangement::ScalarStbnPerAxis,
@@ -196,9 +199,11 @@ impl VectorSpec {
     /// needs one.
     pub fn bytes_per_pixel(&self) -> u64 {
         let optimiser = (4 * self.space.dims() as u64 + 8) * 8 / 5 + 4;
+        let parameters = self.space.stratified_sampler().parameters() as u64;
         match self.initial_arrangement {
-            InitialArrangement::ScalarStbn | InitialArrangement::ScalarStbnPerAxis => {
-                optimiser.max(MaskSpec::BYTES_PER_PIXEL + 4)
+            InitialArrangement::ScalarStbn => optimiser.max(MaskSpec::BYTES_PER_PIXEL + 4),
+            InitialArrangement::ScalarStbnPerAxis => {
+                optimiser.max(MaskSpec::BYTES_PER_PIXEL + 4 * parameters)
             }
             InitialArrangement::Random => optimiser,
         }
@@ -489,32 +494,34 @@ pub(crate) fn arranged_start(
 ) -> Result<Vec<f32>, SpecError> {
     let dims = space.dims();
     let n = width as usize * height as usize;
-    let ranks = match arrangement {
-        InitialArrangement::Random => None,
-        InitialArrangement::ScalarStbn | InitialArrangement::ScalarStbnPerAxis => {
-            Some(crate::generate(
-                &MaskSpec::new(width, height, depth, seed),
-                crate::Observer::default(),
-            )?)
-        }
+    let sampler = space.stratified_sampler();
+    let mask = |seed| {
+        crate::generate(
+            &MaskSpec::new(width, height, depth, seed),
+            crate::Observer::default(),
+        )
+    };
+    // One mask per parameter for the per-axis start, the first shared with the Hilbert-order one.
+    let masks = match arrangement {
+        InitialArrangement::Random => Vec::new(),
+        InitialArrangement::ScalarStbn => vec![mask(seed)?],
+        InitialArrangement::ScalarStbnPerAxis => (0..sampler.parameters())
+            .map(|c| mask(axis_seed(seed, c)))
+            .collect::<Result<_, _>>()?,
     };
     let mut values = vec![0.0f32; n * depth as usize * dims];
-    let sampler = space.stratified_sampler();
-    let axis_offsets: Vec<(usize, usize)> = (0..sampler.parameters())
-        .map(|c| r2_offset(c, width, height))
-        .collect();
     values
         .par_chunks_mut(n * dims)
         .enumerate()
         .for_each(|(z, slice)| {
             let mut rng = keyed_rng(seed, rng::VECTOR.init, z as u64, 0);
-            match &ranks {
-                Some(mask) if arrangement == InitialArrangement::ScalarStbnPerAxis => {
+            match masks.first() {
+                Some(_) if arrangement == InitialArrangement::ScalarStbnPerAxis => {
                     let (set, parameters) = sampler.slice_with_parameters(n, &mut rng);
-                    let ranks = mask.slice(z as u32);
-                    let targets = per_axis_targets(ranks, (width, height), &axis_offsets);
+                    let ranks: Vec<&[u32]> = masks.iter().map(|m| m.slice(z as u32)).collect();
+                    let targets = per_axis_targets(&ranks);
                     let mut order: Vec<(u64, u32)> = parameters
-                        .chunks_exact(axis_offsets.len())
+                        .chunks_exact(ranks.len())
                         .enumerate()
                         .map(|(i, u)| (unit_hilbert_key(u), i as u32))
                         .collect();
@@ -545,37 +552,30 @@ pub(crate) fn arranged_start(
     Ok(values)
 }
 
-/// The offset `(dx, dy)` of the `c`-th point of the R2 sequence `(c/g, c/g²)` (`g` the plastic
-/// number, as the runtime's `Stbn::dimension` offsets sample dimensions), scaled to the slice and
-/// rounded: `(0, 0)` for `c = 0`.
-fn r2_offset(c: usize, width: u32, height: u32) -> (usize, usize) {
-    const A1: f64 = 0.754_877_666_246_692_7;
-    const A2: f64 = 0.569_840_290_998_053_2;
-    let scaled = |a: f64, size: u32| {
-        ((c as f64 * a).fract() * f64::from(size)).round() as usize % size as usize
-    };
-    (scaled(A1, width), scaled(A2, height))
+/// The seed of parameter `c`'s scalar mask in [`InitialArrangement::ScalarStbnPerAxis`]: `seed`
+/// itself for `c = 0`, else the first word of the vector start's stream keyed `(u64::MAX, c)`
+/// (frames key it below 2¹⁶).
+fn axis_seed(seed: u64, c: usize) -> u64 {
+    if c == 0 {
+        seed
+    } else {
+        keyed_rng(seed, rng::VECTOR.init, u64::MAX, c as u64).next_u64()
+    }
 }
 
 /// Each pixel's rank point of [`InitialArrangement::ScalarStbnPerAxis`] as `(Hilbert key,
-/// pixel)`, sorted: coordinate `c` is `(rank + ½) / n` of the pixel `axis_offsets[c]` further
-/// (toroidally) in the slice's `ranks` (`n = width · height`).
-fn per_axis_targets(
-    ranks: &[u32],
-    (width, height): (u32, u32),
-    axis_offsets: &[(usize, usize)],
-) -> Vec<(u64, u32)> {
-    let (w, h, n) = (width as usize, height as usize, ranks.len());
+/// pixel)`, sorted: coordinate `c` is `(rank + ½) / n` in `ranks[c]`, parameter `c`'s mask's
+/// slice of `n` pixels.
+fn per_axis_targets(ranks: &[&[u32]]) -> Vec<(u64, u32)> {
+    let n = ranks[0].len();
     let inv = 1.0 / n as f64;
     let mut targets: Vec<(u64, u32)> = (0..n)
         .map(|p| {
-            let (x, y) = (p % w, p / w);
             let mut point = [0.0f64; 4];
-            for (t, &(dx, dy)) in point.iter_mut().zip(axis_offsets) {
-                let q = (y + dy) % h * w + (x + dx) % w;
-                *t = (f64::from(ranks[q]) + 0.5) * inv;
+            for (t, axis) in point.iter_mut().zip(ranks) {
+                *t = (f64::from(axis[p]) + 0.5) * inv;
             }
-            (unit_hilbert_key(&point[..axis_offsets.len()]), p as u32)
+            (unit_hilbert_key(&point[..ranks.len()]), p as u32)
         })
         .collect();
     targets.sort_unstable();
