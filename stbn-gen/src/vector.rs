@@ -4,8 +4,8 @@
 //! Each slice starts as a stratified sample set of the [`SampleSpace`]
 //! ([`SampleSpace::stratified_sampler`]), arranged as [`InitialArrangement`] says: by default
 //! sorted along a Hilbert curve of value space and handed out in the rank order of a scalar STBN
-//! mask, so similar values start far apart in space and time (for Vec2, each component follows
-//! a scalar STBN mask of its own). The swap optimiser
+//! mask, so similar values start far apart in space and time (for Vec2 and Vec3, each component
+//! follows a scalar STBN mask of its own). The swap optimiser
 //! ([`SwapOptimizer`]) then permutes the values within each slice to lower the spatiotemporal
 //! energy of the paper's §4.2. A slice's multiset of values never changes, so every frame on its
 //! own stays a stratified sample set of the space.
@@ -50,14 +50,14 @@ pub enum InitialArrangement {
 
 impl InitialArrangement {
     /// The start [`VectorSpec::new`] picks for `space`: [`InitialArrangement::ScalarStbnPerAxis`]
-    /// for two-component [`SampleSpace::Vec`] masks (each component is one parameter, so each
-    /// starts close to a scalar STBN mask), [`InitialArrangement::ScalarStbn`] for the rest. On
-    /// spheres and hemispheres a component mixes both parameters, and the per-axis start measured
-    /// a higher temporal low band there; on `Vec3` and `Vec4`, a lower temporal low band but a
-    /// filtered error and spatial low band no better (BENCHMARKS.md, "Design decisions").
+    /// for [`SampleSpace::Vec`] masks of two and three components (each component is one
+    /// parameter, so each starts close to a scalar STBN mask), [`InitialArrangement::ScalarStbn`]
+    /// for the rest. On spheres and hemispheres a component mixes both parameters, and the
+    /// per-axis start measured a higher temporal low band there; on `Vec4`, a lower temporal low
+    /// band but a higher filtered error (BENCHMARKS.md, "Design decisions").
     pub fn default_for(space: &SampleSpace) -> InitialArrangement {
         match space {
-            SampleSpace::Vec { dims: 2 } => InitialArrangement::ScalarStbnPerAxis,
+            SampleSpace::Vec { dims: 2 | 3 } => InitialArrangement::ScalarStbnPerAxis,
             _ => InitialArrangement::ScalarStbn,
         }
     }
@@ -196,14 +196,14 @@ impl VectorSpec {
     /// (8), plus the private copies the tiles of one colour make of their regions (about 60%
     /// more of both at the default σi), and the scalar mask's ranks or the pdf channel (4);
     /// before it, the scalar mask's generator ([`MaskSpec::BYTES_PER_PIXEL`]) if the arrangement
-    /// needs one.
+    /// needs one, or one per parameter at once for [`InitialArrangement::ScalarStbnPerAxis`].
     pub fn bytes_per_pixel(&self) -> u64 {
         let optimiser = (4 * self.space.dims() as u64 + 8) * 8 / 5 + 4;
         let parameters = self.space.stratified_sampler().parameters() as u64;
         match self.initial_arrangement {
             InitialArrangement::ScalarStbn => optimiser.max(MaskSpec::BYTES_PER_PIXEL + 4),
             InitialArrangement::ScalarStbnPerAxis => {
-                optimiser.max(MaskSpec::BYTES_PER_PIXEL + 4 * parameters)
+                optimiser.max(MaskSpec::BYTES_PER_PIXEL * parameters)
             }
             InitialArrangement::Random => optimiser,
         }
@@ -505,7 +505,9 @@ pub(crate) fn arranged_start(
     let masks = match arrangement {
         InitialArrangement::Random => Vec::new(),
         InitialArrangement::ScalarStbn => vec![mask(seed)?],
+        // In parallel: the scalar generator keeps about one core busy.
         InitialArrangement::ScalarStbnPerAxis => (0..sampler.parameters())
+            .into_par_iter()
             .map(|c| mask(axis_seed(seed, c)))
             .collect::<Result<_, _>>()?,
     };

@@ -395,13 +395,33 @@ fn volume_accessors_agree() {
 #[test]
 fn vector_output_is_pinned_to_the_generator_version() {
     // If this fails, the vector generator's output changed: bump `GENERATOR_VERSION` (so caches
-    // regenerate) and record the new digests here. Pinned from version 7 on (8 changed Vec2 only): 16 frames, so
-    // every pass cuts them into two runs (`swap::TILE_FRAMES`), and two assignment passes.
-    let pinned: [(u32, [u64; 2]); 2] = [
-        (7, [0xc164_56e5_150c_9fb8, 0xd409_efbe_ef6f_5595]),
-        (8, [0xbec8_ae9c_a840_6020, 0xd409_efbe_ef6f_5595]),
+    // regenerate) and record the new digests here. Pinned from version 7 on (8 changed Vec2 and
+    // Vec3, whose start differs): 16 frames, so every pass cuts them into two runs
+    // (`swap::TILE_FRAMES`), and two assignment passes. Vec2, UnitVec3, Vec3.
+    let pinned: [(u32, [u64; 3]); 2] = [
+        (
+            7,
+            [
+                0xc164_56e5_150c_9fb8,
+                0xd409_efbe_ef6f_5595,
+                0xfb35_e886_f6ad_987c,
+            ],
+        ),
+        (
+            8,
+            [
+                0xbec8_ae9c_a840_6020,
+                0xd409_efbe_ef6f_5595,
+                0x043a_983c_0c41_1360,
+            ],
+        ),
     ];
-    let digests = [SampleSpace::Vec { dims: 2 }, SampleSpace::UnitVec3].map(|space| {
+    let spaces = [
+        SampleSpace::Vec { dims: 2 },
+        SampleSpace::UnitVec3,
+        SampleSpace::Vec { dims: 3 },
+    ];
+    let digests = spaces.map(|space| {
         let spec = VectorSpec::new(16, 16, 16, 2026, space)
             .with_swaps_per_pixel(4.0)
             .with_assignment_passes(2);
