@@ -209,8 +209,10 @@ impl StratifiedSampler<'_> {
     }
 
     /// The values [`StratifiedSampler::slice`] shuffles, in the lattice's order, and the point
-    /// of `[0, 1)^`[`parameters`](StratifiedSampler::parameters) each is mapped from (value `i`
-    /// from parameters `i·parameters()..`; for `UnitVec1`, `(i + ½)/count`, the `+1`s first).
+    /// of `[0, 1]^`[`parameters`](StratifiedSampler::parameters) each corresponds to, one-to-one
+    /// and area-preserving (value `i` from parameters `i·parameters()..`): the lattice point it
+    /// is mapped from, but for spheres and hemispheres the concentric square of their disc
+    /// ([`disc_squares`]), and for `UnitVec1` `(i + ½)/count`, the `+1`s first.
     pub(crate) fn slice_with_parameters(
         &self,
         count: usize,
@@ -259,7 +261,7 @@ impl StratifiedSampler<'_> {
                     };
                     values.extend(unit_from_z_phi(z, ab[1]));
                 }
-                points
+                disc_squares(&points)
             }
             (SampleSpace::CosineHemisphere, _) => {
                 let points = latinised_lattice(count, 2, rng);
@@ -267,7 +269,7 @@ impl StratifiedSampler<'_> {
                     // Malley: uniform in the unit disc (r² = a), lifted to the hemisphere.
                     values.extend(unit_from_z_phi((1.0 - ab[0]).sqrt(), ab[1]));
                 }
-                points
+                disc_squares(&points)
             }
             (SampleSpace::ImagePoints(image), Some(sampler)) => {
                 let points = latinised_lattice(count, 2, rng);
@@ -374,6 +376,43 @@ fn unit_from_z_phi(z: f64, b: f64) -> [f32; 3] {
     [(r * cos) as f32, (r * sin) as f32, z as f32]
 }
 
+/// The parameters of sphere and hemisphere values drawn from the lattice `points` (`(a, b)`
+/// pairs): the point of the unit square that the concentric map takes to the disc point at
+/// radius `√a`, angle `2πb`, where `(a, b)` maps area-preservingly to the disc (Malley's disc of
+/// the cosine hemisphere; Lambert's azimuthal projection of the sphere and uniform hemisphere,
+/// about +Z). The square's axes follow the disc's `x` and `y`, so on hemispheres they follow
+/// the values' first two components.
+fn disc_squares(points: &[f64]) -> Vec<f64> {
+    points
+        .chunks_exact(2)
+        .flat_map(|ab| concentric_square(ab[0].sqrt(), std::f64::consts::TAU * ab[1]))
+        .collect()
+}
+
+/// The point of `[0, 1]²` that Shirley and Chiu's concentric map takes to the disc point at
+/// radius `r` and angle `phi`: the map is equal-area, so a uniform disc gives a uniform square,
+/// and its axes follow the disc's `x` and `y`.
+fn concentric_square(r: f64, phi: f64) -> [f64; 2] {
+    use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
+    // φ in [−π/4, 7π/4).
+    let phi = phi.rem_euclid(2.0 * PI);
+    let phi = if phi >= 7.0 * FRAC_PI_4 {
+        phi - 2.0 * PI
+    } else {
+        phi
+    };
+    let (a, b) = if phi < FRAC_PI_4 {
+        (r, phi / FRAC_PI_4 * r)
+    } else if phi < 3.0 * FRAC_PI_4 {
+        (-(phi - FRAC_PI_2) / FRAC_PI_4 * r, r)
+    } else if phi < 5.0 * FRAC_PI_4 {
+        (-r, -(phi - PI) / FRAC_PI_4 * r)
+    } else {
+        ((phi - 3.0 * FRAC_PI_2) / FRAC_PI_4 * r, -r)
+    };
+    [(a + 1.0) * 0.5, (b + 1.0) * 0.5]
+}
+
 /// `x` as `f32`, kept below 1 (an `x` just below 1 would round up to 1.0).
 fn below_one(x: f64) -> f32 {
     (x as f32).min(1.0 - f32::EPSILON / 2.0)
@@ -470,6 +509,43 @@ mod tests {
                     (0..n).collect::<Vec<_>>(),
                     "dims {dims}, component {c}"
                 );
+            }
+        }
+    }
+
+    /// `concentric_square` inverts Shirley and Chiu's concentric map (square `[−1, 1]²` to the
+    /// unit disc, equal-area), checked on a grid of the square including its axes and diagonals.
+    #[test]
+    fn concentric_square_inverts_the_concentric_map() {
+        use std::f64::consts::{FRAC_PI_2, FRAC_PI_4};
+        let to_disc = |a: f64, b: f64| -> (f64, f64) {
+            if a == 0.0 && b == 0.0 {
+                (0.0, 0.0)
+            } else if a.abs() > b.abs() {
+                (a, FRAC_PI_4 * (b / a))
+            } else {
+                (b, FRAC_PI_2 - FRAC_PI_4 * (a / b))
+            }
+        };
+        for i in 0..=40 {
+            for j in 0..=40 {
+                let (a, b) = (i as f64 / 20.0 - 1.0, j as f64 / 20.0 - 1.0);
+                // The map's signed radius and angle, as a disc point's radius and angle.
+                let (r, phi) = to_disc(a, b);
+                let (r, phi) = if r < 0.0 {
+                    (-r, phi + std::f64::consts::PI)
+                } else {
+                    (r, phi)
+                };
+                let [u, v] = concentric_square(r, phi);
+                if r > 0.0 {
+                    assert!(
+                        (u - (a + 1.0) / 2.0).abs() < 1e-12 && (v - (b + 1.0) / 2.0).abs() < 1e-12,
+                        "({a}, {b}) -> r {r}, φ {phi} -> ({u}, {v})"
+                    );
+                } else {
+                    assert_eq!([u, v], [0.5, 0.5]);
+                }
             }
         }
     }

@@ -35,8 +35,9 @@ pub enum InitialArrangement {
     /// better start than white noise for the price of one scalar mask (BENCHMARKS.md).
     ScalarStbn,
     /// Every parameter of the space's stratified set (the point of the unit square or cube each
-    /// value is mapped from: both components of a `Vec2`, the angle of a `UnitVec2`, the two
-    /// area-preserving coordinates of a sphere, hemisphere or image) takes its per-slice rank from
+    /// value corresponds to, area-preserving: both components of a `Vec2`, the angle of a
+    /// `UnitVec2`, the concentric square of a sphere's or hemisphere's equal-area disc, the two
+    /// coordinates of an image's sampler) takes its per-slice rank from
     /// its own scalar STBN mask: parameter 0 from `MaskSpec::new(width, height, depth, seed)` (the
     /// mask [`InitialArrangement::ScalarStbn`] uses), parameter `c` from one of a seed derived
     /// from `(seed, c)`; the values go to the pixels whose rank points are nearest along a Hilbert
@@ -52,9 +53,10 @@ impl InitialArrangement {
     /// The start [`VectorSpec::new`] picks for `space`: [`InitialArrangement::ScalarStbnPerAxis`]
     /// for [`SampleSpace::Vec`] masks of two and three components (each component is one
     /// parameter, so each starts close to a scalar STBN mask), [`InitialArrangement::ScalarStbn`]
-    /// for the rest. On spheres and hemispheres a component mixes both parameters, and the
-    /// per-axis start measured a higher temporal low band there; on `Vec4`, a lower temporal low
-    /// band but a higher filtered error (BENCHMARKS.md, "Design decisions").
+    /// for the rest. The per-axis start measured a higher filtered error on `Vec4`, mixed figures
+    /// on the sphere, the circle and the uniform hemisphere, and on the cosine hemisphere better
+    /// report figures but no better ambient occlusion in the scenes crate (BENCHMARKS.md, "Design
+    /// decisions").
     pub fn default_for(space: &SampleSpace) -> InitialArrangement {
         match space {
             SampleSpace::Vec { dims: 2 | 3 } => InitialArrangement::ScalarStbnPerAxis,

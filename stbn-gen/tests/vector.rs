@@ -397,14 +397,15 @@ fn vector_output_is_pinned_to_the_generator_version() {
     // If this fails, the vector generator's output changed: bump `GENERATOR_VERSION` (so caches
     // regenerate) and record the new digests here. Pinned from version 7 on (8 changed Vec2 and
     // Vec3, whose start differs): 16 frames, so every pass cuts them into two runs
-    // (`swap::TILE_FRAMES`), and two assignment passes. Vec2, UnitVec3, Vec3.
-    let pinned: [(u32, [u64; 3]); 2] = [
+    // (`swap::TILE_FRAMES`), and two assignment passes. Vec2, UnitVec3, Vec3, CosineHemisphere.
+    let pinned: [(u32, [u64; 4]); 2] = [
         (
             7,
             [
                 0xc164_56e5_150c_9fb8,
                 0xd409_efbe_ef6f_5595,
                 0xfb35_e886_f6ad_987c,
+                0x4ba1_edc0_e228_3dd1,
             ],
         ),
         (
@@ -413,6 +414,7 @@ fn vector_output_is_pinned_to_the_generator_version() {
                 0xbec8_ae9c_a840_6020,
                 0xd409_efbe_ef6f_5595,
                 0x043a_983c_0c41_1360,
+                0x4ba1_edc0_e228_3dd1,
             ],
         ),
     ];
@@ -420,6 +422,7 @@ fn vector_output_is_pinned_to_the_generator_version() {
         SampleSpace::Vec { dims: 2 },
         SampleSpace::UnitVec3,
         SampleSpace::Vec { dims: 3 },
+        SampleSpace::CosineHemisphere,
     ];
     let digests = spaces.map(|space| {
         let spec = VectorSpec::new(16, 16, 16, 2026, space)
