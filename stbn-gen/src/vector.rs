@@ -519,8 +519,26 @@ pub(crate) fn arranged_start(
         .enumerate()
         .for_each(|(z, slice)| {
             let mut rng = keyed_rng(seed, rng::VECTOR.init, z as u64, 0);
-            match masks.first() {
-                Some(_) if arrangement == InitialArrangement::ScalarStbnPerAxis => {
+            match arrangement {
+                InitialArrangement::Random => slice.copy_from_slice(&sampler.slice(n, &mut rng)),
+                InitialArrangement::ScalarStbn => {
+                    let set = sampler.slice(n, &mut rng);
+                    // Sorted along the Hilbert curve, handed out in the scalar mask's rank order.
+                    let mut order: Vec<(u64, u32)> = set
+                        .chunks_exact(dims)
+                        .enumerate()
+                        .map(|(i, v)| (hilbert_key(space, v), i as u32))
+                        .collect();
+                    order.sort_unstable();
+                    for (pixel, &rank) in masks[0].slice(z as u32).iter().enumerate() {
+                        let from = order[rank as usize].1 as usize * dims;
+                        slice[pixel * dims..(pixel + 1) * dims]
+                            .copy_from_slice(&set[from..from + dims]);
+                    }
+                }
+                InitialArrangement::ScalarStbnPerAxis => {
+                    // Rank points and parameters both sorted along the unit cube's Hilbert
+                    // curve, matched in that order.
                     let (set, parameters) = sampler.slice_with_parameters(n, &mut rng);
                     let ranks: Vec<&[u32]> = masks.iter().map(|m| m.slice(z as u32)).collect();
                     let targets = per_axis_targets(&ranks);
@@ -535,22 +553,6 @@ pub(crate) fn arranged_start(
                         slice[pixel..pixel + dims].copy_from_slice(&set[from..from + dims]);
                     }
                 }
-                None => slice.copy_from_slice(&sampler.slice(n, &mut rng)),
-                Some(mask) => {
-                    let set = sampler.slice(n, &mut rng);
-                    // Sorted along the Hilbert curve, handed out in the scalar mask's rank order.
-                    let mut order: Vec<(u64, u32)> = set
-                        .chunks_exact(dims)
-                        .enumerate()
-                        .map(|(i, v)| (hilbert_key(space, v), i as u32))
-                        .collect();
-                    order.sort_unstable();
-                    for (pixel, &rank) in mask.slice(z as u32).iter().enumerate() {
-                        let from = order[rank as usize].1 as usize * dims;
-                        slice[pixel * dims..(pixel + 1) * dims]
-                            .copy_from_slice(&set[from..from + dims]);
-                    }
-                }
             }
         });
     Ok(values)
@@ -558,7 +560,7 @@ pub(crate) fn arranged_start(
 
 /// The seed of parameter `c`'s scalar mask in [`InitialArrangement::ScalarStbnPerAxis`]: `seed`
 /// itself for `c = 0`, else the first word of the vector start's stream keyed `(u64::MAX, c)`
-/// (frames key it below 2¹⁶).
+/// (no frame's key).
 fn axis_seed(seed: u64, c: usize) -> u64 {
     if c == 0 {
         seed
