@@ -208,7 +208,8 @@ impl FilterAdaptedSpec {
     /// `dims²` of them) plus the tiles' copies, about twice that again; for the product energy
     /// the integer components (4 each) and field (8 each, plus 16 while it is computed from
     /// scratch); before all that the scalar STBN mask's generator
-    /// ([`MaskSpec::BYTES_PER_PIXEL`]) when the arrangement needs one.
+    /// ([`MaskSpec::BYTES_PER_PIXEL`]) when the arrangement needs one, or one per parameter at
+    /// once for [`InitialArrangement::ScalarStbnPerAxis`].
     fn bytes_per_pixel(&self, dims: usize) -> u64 {
         let dims = dims as u64;
         let optimiser = match self.value_kernel {
@@ -216,8 +217,10 @@ impl FilterAdaptedSpec {
             ValueKernel::Product => 4 + 12 * dims + 16,
         };
         match self.initial_arrangement {
-            InitialArrangement::ScalarStbn | InitialArrangement::ScalarStbnPerAxis => {
-                optimiser.max(MaskSpec::BYTES_PER_PIXEL + 4)
+            InitialArrangement::ScalarStbn => optimiser.max(MaskSpec::BYTES_PER_PIXEL + 4),
+            // One scalar generator per parameter at once; a space has at most `dims` parameters.
+            InitialArrangement::ScalarStbnPerAxis => {
+                optimiser.max(MaskSpec::BYTES_PER_PIXEL * dims)
             }
             InitialArrangement::Random => optimiser,
         }

@@ -157,8 +157,8 @@ pub const PARTNER_CANDIDATES: u32 = 16;
 /// at 0.397 against 0.071 for uniform partners; the ramp reached 0.069. From the Hilbert-order
 /// start ([`crate::InitialArrangement::ScalarStbn`]) it also ends lower than 16 from the first
 /// pass (64×64×32, 128 passes: Vec2 3.27557 against 3.27619, UnitVec3 1.60074 against 1.60173).
-/// The per-axis start is close enough that uniform partners only undo it: BENCHMARKS.md ("Vector
-/// masks").
+/// The per-axis start is close enough that uniform partners only undo it: BENCHMARKS.md ("Design
+/// decisions").
 pub fn partner_candidates(pass: u64, cap: u32, ramp: bool) -> u32 {
     let cap = cap.max(1);
     if ramp {
