@@ -220,7 +220,7 @@ impl FilterAdaptedSpec {
             InitialArrangement::ScalarStbn => optimiser.max(MaskSpec::BYTES_PER_PIXEL + 4),
             // One scalar generator per parameter at once; a space has at most `dims` parameters.
             InitialArrangement::ScalarStbnPerAxis => {
-                optimiser.max(MaskSpec::BYTES_PER_PIXEL * dims)
+                optimiser.max(MaskSpec::BYTES_PER_PIXEL * dims + 4)
             }
             InitialArrangement::Random => optimiser,
         }
