@@ -37,15 +37,17 @@ pub enum InitialArrangement {
     /// Every parameter of the space's stratified set (the point of the unit square or cube each
     /// value corresponds to, area-preserving: both components of a `Vec2`, the angle of a
     /// `UnitVec2`, the concentric square of a sphere's or hemisphere's equal-area disc, the two
-    /// coordinates of an image's sampler) takes its per-slice rank from
-    /// its own scalar STBN mask: parameter 0 from `MaskSpec::new(width, height, depth, seed)` (the
-    /// mask [`InitialArrangement::ScalarStbn`] uses), parameter `c` from one of a seed derived
-    /// from `(seed, c)`; the values go to the pixels whose rank points are nearest along a Hilbert
+    /// coordinates of an image's sampler) takes its per-slice rank from its own scalar STBN mask:
+    /// parameter 0 from `MaskSpec::new(width, height, depth, seed)` (the mask
+    /// [`InitialArrangement::ScalarStbn`] uses), parameter `c` from one of a seed derived from
+    /// `(seed, c)`; the values go to the pixels whose rank points are nearest along a Hilbert
     /// curve of the unit cube. So each parameter read alone starts close to a scalar STBN mask, in
-    /// space and in time, and the pixels' sequences start far bluer than from one rank per pixel
-    /// (BENCHMARKS.md). Independent masks, not one mask at offsets: a mask read at an offset would
-    /// tie one component to another at that offset (0.81 correlation after optimisation for the
-    /// runtime's dimension-1 offset), which sample dimensions read there would inherit.
+    /// space and in time, and the pixels' sequences start far bluer than from one rank per pixel;
+    /// the swap optimiser then draws all its partner candidates from the first pass
+    /// (BENCHMARKS.md, "Design decisions"). Independent masks, not one mask at offsets: a mask
+    /// read at an offset would tie one component to another at that offset (0.81 correlation
+    /// after optimisation for the runtime's dimension-1 offset), which sample dimensions read
+    /// there would inherit.
     ScalarStbnPerAxis,
 }
 
