@@ -83,6 +83,17 @@ impl SampleSpace {
         }
     }
 
+    /// Parameters of each value: the dimension of the unit cube its stratified sets correspond to
+    /// ([`StratifiedSampler::slice_with_parameters`]): `dims` for [`SampleSpace::Vec`], 1 for the
+    /// sign of `UnitVec1` and the angle of `UnitVec2`, 2 for spheres, hemispheres and images.
+    pub(crate) fn parameters(&self) -> usize {
+        match self {
+            SampleSpace::Vec { dims } => usize::from(*dims),
+            SampleSpace::UnitVec1 | SampleSpace::UnitVec2 => 1,
+            _ => 2,
+        }
+    }
+
     /// A stable lowercase name for file names, reports and sidecars: `vec1` … `vec4`, `unitvec1`,
     /// `unitvec2`, `unitvec3`, `uniform_hemisphere`, `cosine_hemisphere`, `image_points`,
     /// `environment`. `Vec` with an out-of-range `dims` is `vec_invalid`.
@@ -188,17 +199,6 @@ pub(crate) struct StratifiedSampler<'a> {
 }
 
 impl StratifiedSampler<'_> {
-    /// Parameters of each value: the dimension of the unit cube the space's stratified sets are
-    /// mapped from (`dims` for [`SampleSpace::Vec`], 1 for the sign of `UnitVec1` and the angle of
-    /// `UnitVec2`, 2 for spheres, hemispheres and images).
-    pub(crate) fn parameters(&self) -> usize {
-        match self.space {
-            SampleSpace::Vec { dims } => usize::from(*dims),
-            SampleSpace::UnitVec1 | SampleSpace::UnitVec2 => 1,
-            _ => 2,
-        }
-    }
-
     /// `count` values (`count · dims()` components, value `i` at `i·dims()..`) forming one
     /// stratified sample set of the space ([`SampleSpace`]'s docs), in a random order: the initial
     /// state of one slice. Deterministic for a given `rng` state.
@@ -209,7 +209,7 @@ impl StratifiedSampler<'_> {
     }
 
     /// The values [`StratifiedSampler::slice`] shuffles, in the lattice's order, and the point
-    /// of `[0, 1]^`[`parameters`](StratifiedSampler::parameters) each corresponds to, one-to-one
+    /// of `[0, 1]^`[`parameters`](SampleSpace::parameters) each corresponds to, one-to-one
     /// and area-preserving (value `i` from parameters `i·parameters()..`): the lattice point it
     /// is mapped from, but for spheres and hemispheres the concentric square of their disc
     /// ([`disc_squares`]), and for `UnitVec1` `(i + ½)/count`, the `+1`s first.
@@ -289,6 +289,7 @@ impl StratifiedSampler<'_> {
                 unreachable!("image spaces get their sampler in stratified_sampler")
             }
         };
+        debug_assert_eq!(parameters.len(), count * space.parameters());
         (values, parameters)
     }
 }

@@ -203,11 +203,10 @@ impl VectorSpec {
     /// needs one, or one per parameter at once for [`InitialArrangement::ScalarStbnPerAxis`].
     pub fn bytes_per_pixel(&self) -> u64 {
         let optimiser = (4 * self.space.dims() as u64 + 8) * 8 / 5 + 4;
-        let parameters = self.space.stratified_sampler().parameters() as u64;
         match self.initial_arrangement {
             InitialArrangement::ScalarStbn => optimiser.max(MaskSpec::BYTES_PER_PIXEL + 4),
             InitialArrangement::ScalarStbnPerAxis => {
-                optimiser.max(MaskSpec::BYTES_PER_PIXEL * parameters)
+                optimiser.max(MaskSpec::BYTES_PER_PIXEL * self.space.parameters() as u64)
             }
             InitialArrangement::Random => optimiser,
         }
@@ -510,7 +509,7 @@ pub(crate) fn arranged_start(
         InitialArrangement::Random => Vec::new(),
         InitialArrangement::ScalarStbn => vec![mask(seed)?],
         // In parallel: the scalar generator keeps about one core busy.
-        InitialArrangement::ScalarStbnPerAxis => (0..sampler.parameters())
+        InitialArrangement::ScalarStbnPerAxis => (0..space.parameters())
             .into_par_iter()
             .map(|c| mask(axis_seed(seed, c)))
             .collect::<Result<_, _>>()?,
