@@ -95,8 +95,8 @@ pub fn filtered_error(field: &Field, options: FilteredErrorOptions) -> Vec<f64> 
 /// as one stratum at a time), and the lanes turn the blur's and the sums' loops into vector
 /// instructions (and, with the AVX2 build of [`binary_variances`], one lane per `f64` of a
 /// register). 128×128×64 fields, 2 cores (`cargo bench -p stbn-gen --features analysis --bench
-/// analysis`): one stratum at a time 1.65 s, four in lanes 0.56 s (vector thresholds: 2.41 s
-/// against 1.09 s).
+/// analysis`): one stratum at a time 1.65 s, four in lanes 0.48 s (vector thresholds: 2.41 s
+/// against 0.95 s); eight lanes measured 0.50 s (1.00 s).
 const LANES: usize = 4;
 
 /// Per-stratum variance curves from [`binary_variances`]' per-frame lanes: the first `strata`
@@ -332,8 +332,9 @@ fn convolve<'a>(
     }
 }
 
-/// Outputs [`convolve`] sums side by side.
-const CHAINS: usize = 4;
+/// Outputs [`convolve`] sums side by side: 8 measured 0.48 s against 0.55 s for 4 (the
+/// [`LANES`] benchmark).
+const CHAINS: usize = 8;
 
 /// `Var(hₖ)` for every frame of `field`'s size and each of [`LANES`] strata, where
 /// `binarize(k, b)` writes frame `k`'s binary images into `b` (`W·H` entries, each lane 0 or 1).
