@@ -257,9 +257,10 @@ pub fn gaussian_weights(sigma: f64) -> Vec<f64> {
 }
 
 /// Convolves the `w × h` image `image` toroidally with `kernel` (odd length, centred) along x,
-/// then along y, into `out`; `scratch` holds the x pass. All three have `w · h` entries of
-/// [`LANES`] independent images. Each output is `Σⱼ kernel[j] · input` in tap order, lane by
-/// lane, from `−0.0` along x (what `Iterator::sum` starts from) and from `+0.0` along y.
+/// then along y, calling `emit(&mut out[p], value)` for each pixel `p` in order; `scratch` holds
+/// the x pass. All three have `w · h` entries of [`LANES`] independent images. Each value is
+/// `Σⱼ kernel[j] · input` in tap order, lane by lane, from `−0.0` along x (what `Iterator::sum`
+/// starts from) and from `+0.0` along y.
 #[inline(always)]
 fn blur_toroidal(
     image: &[[f64; LANES]],
@@ -268,6 +269,7 @@ fn blur_toroidal(
     kernel: &[f64],
     scratch: &mut [[f64; LANES]],
     out: &mut [[f64; LANES]],
+    mut emit: impl FnMut(&mut [f64; LANES], [f64; LANES]),
 ) {
     let radius = kernel.len() / 2;
     // Input coordinate of tap j for output coordinate c: (c + j − r) mod len, any r (also
@@ -284,20 +286,20 @@ fn blur_toroidal(
         for (p, &x) in padded.iter_mut().zip(&wrapped_x) {
             *p = row[x];
         }
-        convolve(dst, kernel, -0.0, |j| &padded[j..j + w]);
+        convolve(dst, kernel, -0.0, |j| &padded[j..j + w], |d, v| *d = v);
     }
     // Along y from +0.0: tap j of row y reads row (y + j − r) mod h.
     let wrapped_y = wrapped(h);
     for (y, dst) in out.chunks_exact_mut(w).enumerate() {
         let rows = &wrapped_y[y..y + kernel.len()];
-        convolve(dst, kernel, 0.0, |j| {
-            &scratch[rows[j] * w..(rows[j] + 1) * w]
-        });
+        let tap = |j: usize| &scratch[rows[j] * w..(rows[j] + 1) * w];
+        convolve(dst, kernel, 0.0, tap, &mut emit);
     }
 }
 
-/// `out[c] = (…(start + kernel[0] · tap(0)[c]) + …) + kernel[t] · tap(t)[c]` lane by lane, tap
-/// by tap in order (`tap(j)` as long as `out`). Each sum is a chain of dependent additions, so
+/// `emit(&mut out[c], (…(start + kernel[0] · tap(0)[c]) + …) + kernel[t] · tap(t)[c])` for each
+/// `c` in order, the sums lane by lane, tap by tap in order (`tap(j)` as long as `out`). Each
+/// sum is a chain of dependent additions, so
 /// [`CHAINS`] outputs are summed side by side (the same operations per output, their latencies
 /// overlapped).
 #[inline(always)]
@@ -306,6 +308,7 @@ fn convolve<'a>(
     kernel: &[f64],
     start: f64,
     tap: impl Fn(usize) -> &'a [[f64; LANES]],
+    mut emit: impl FnMut(&mut [f64; LANES], [f64; LANES]),
 ) {
     let whole = out.len() / CHAINS * CHAINS;
     let (grouped, rest) = out.split_at_mut(whole);
@@ -319,7 +322,9 @@ fn convolve<'a>(
                 }
             }
         }
-        group.copy_from_slice(&sums);
+        for (o, sum) in group.iter_mut().zip(sums) {
+            emit(o, sum);
+        }
     }
     for (i, o) in rest.iter_mut().enumerate() {
         let mut sum = [start; LANES];
@@ -328,7 +333,7 @@ fn convolve<'a>(
                 *s += k * v;
             }
         }
-        *o = sum;
+        emit(o, sum);
     }
 }
 
@@ -381,30 +386,25 @@ fn binary_variances_portable(
     let n = w * h;
     let mut binary = vec![[0.0; LANES]; n];
     let mut scratch = vec![[0.0; LANES]; n];
-    let mut filtered = vec![[0.0; LANES]; n];
     let mut ema = vec![[0.0; LANES]; n];
     // A plain loop, not an iterator chain: a closure handed to `map` is compiled out of line,
     // without the AVX2 build's features.
     let mut variances = Vec::with_capacity(field.depth());
     for z in 0..field.depth() {
         binarize(z, &mut binary);
-        blur_toroidal(&binary, w, h, kernel, &mut scratch, &mut filtered);
-        if z == 0 {
-            ema.copy_from_slice(&filtered);
-        } else {
-            for (e, f) in ema.iter_mut().zip(&filtered) {
-                for (e, f) in e.iter_mut().zip(f) {
-                    *e = alpha * f + (1.0 - alpha) * *e;
-                }
-            }
-        }
-        // Sums over the pixels in pixel order, lane by lane, from −0.0 like `Iterator::sum`.
+        // Each blurred value goes straight into the EMA, and the EMA into the mean's sum (over
+        // the pixels in pixel order, lane by lane, from −0.0 like `Iterator::sum`).
         let mut mean = [-0.0; LANES];
-        for e in &ema {
-            for (m, e) in mean.iter_mut().zip(e) {
-                *m += e;
+        blur_toroidal(&binary, w, h, kernel, &mut scratch, &mut ema, |e, f| {
+            for ((e, f), m) in e.iter_mut().zip(f).zip(&mut mean) {
+                *e = if z == 0 {
+                    f
+                } else {
+                    alpha * f + (1.0 - alpha) * *e
+                };
+                *m += *e;
             }
-        }
+        });
         let mean = mean.map(|s| s / n as f64);
         let mut variance = [-0.0; LANES];
         for e in &ema {
@@ -559,7 +559,7 @@ mod tests {
         image[w] = [1.0; LANES]; // (0, 1)
         image[w][1] = 0.0; // one lane empty: the lanes are independent
         let (mut scratch, mut out) = (image.clone(), image.clone());
-        blur_toroidal(&image, w, h, &kernel, &mut scratch, &mut out);
+        blur_toroidal(&image, w, h, &kernel, &mut scratch, &mut out, |o, v| *o = v);
         assert!(out.iter().all(|v| v[1] == 0.0));
         let out: Vec<f64> = out.iter().map(|v| v[0]).collect();
         // Along y (h = 3): offsets −2..=2 land on rows 2, 0, 1, 2, 0 → row weights.
