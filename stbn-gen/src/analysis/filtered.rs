@@ -299,9 +299,8 @@ fn blur_toroidal(
 
 /// `emit(&mut out[c], (…(start + kernel[0] · tap(0)[c]) + …) + kernel[t] · tap(t)[c])` for each
 /// `c` in order, the sums lane by lane, tap by tap in order (`tap(j)` as long as `out`). Each
-/// sum is a chain of dependent additions, so
-/// [`CHAINS`] outputs are summed side by side (the same operations per output, their latencies
-/// overlapped).
+/// sum is a chain of dependent additions, so [`CHAINS`] outputs are summed side by side (the same
+/// operations per output, their latencies overlapped).
 #[inline(always)]
 fn convolve<'a>(
     out: &mut [[f64; LANES]],
@@ -346,7 +345,8 @@ const CHAINS: usize = 8;
 ///
 /// Compiled with AVX2 too, picked at run time where the CPU has it: 4 lanes per instruction
 /// instead of SSE2's 2, the same IEEE operations in the same order (Rust never fuses a multiply
-/// and an add), so the same bits.
+/// and an add), so the same bits. The analysis bench, Zen 4, 2 cores, both builds in one sitting:
+/// 0.72–0.73 s (SSE2) against 0.46 s, with half-spaces 1.21–1.24 s against 0.94–0.95 s.
 fn binary_variances(
     field: &Field,
     kernel: &[f64],
