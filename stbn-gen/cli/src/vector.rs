@@ -5,6 +5,7 @@ use std::fmt::Write as _;
 use std::fs;
 use std::path::Path;
 
+use rayon::prelude::*;
 use serde::Serialize;
 use stbn_build_support::{MaskEntry, Method};
 use stbn_gen::EnergyTrace;
@@ -80,7 +81,9 @@ pub fn write_png_slices(mask: &Stbn<'_>, folder: &Path, name: &str) -> Result<()
     let bpe = mask.encoding().bytes_per_element();
     let frame_elements = mask.width() as usize * mask.height() as usize * channels;
     let sixteen = mask.encoding() != Encoding::Unorm8;
-    for z in 0..depth {
+    // Frames are encoded in parallel, in memory, then written in order (so the first error, if
+    // any, is the first frame's).
+    let encode = |z: u32| -> std::result::Result<Vec<u8>, String> {
         let start = z as usize * frame_elements * bpe;
         let frame = &mask.data()[start..start + frame_elements * bpe];
         // The stored element `i` of this frame as a PNG sample (u8 or u16 code).
@@ -116,9 +119,10 @@ pub fn write_png_slices(mask: &Stbn<'_>, folder: &Path, name: &str) -> Result<()
                 }
             }
         }
-        let path = folder.join(format!("{name}_{z}.png"));
-        let encode_error = |e: png::EncodingError| format!("cannot encode {}: {e}", path.display());
-        // Encoded in memory, then written by one call that reports every error.
+        let encode_error = |e: png::EncodingError| {
+            let path = folder.join(format!("{name}_{z}.png"));
+            format!("cannot encode {}: {e}", path.display())
+        };
         let mut encoded = Vec::new();
         let mut encoder = png::Encoder::new(&mut encoded, mask.width(), mask.height());
         encoder.set_color(png::ColorType::Rgba);
@@ -130,7 +134,12 @@ pub fn write_png_slices(mask: &Stbn<'_>, folder: &Path, name: &str) -> Result<()
         let mut writer = encoder.write_header().map_err(encode_error)?;
         writer.write_image_data(&data).map_err(encode_error)?;
         writer.finish().map_err(encode_error)?;
-        write_file(&path, &encoded)?;
+        Ok(encoded)
+    };
+    let frames: Vec<_> = (0..depth).into_par_iter().map(encode).collect();
+    for (z, encoded) in frames.into_iter().enumerate() {
+        // Written by one call that reports every error.
+        write_file(&folder.join(format!("{name}_{z}.png")), &encoded?)?;
     }
     Ok(())
 }
