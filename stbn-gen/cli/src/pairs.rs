@@ -121,8 +121,8 @@ fn figures(
 ) -> std::result::Result<Vec<Cell>, String> {
     let d = mask.size.2;
     let error = |e: &dyn std::fmt::Display| format!("{}: {e}", mask.name);
-    let field = |values| field(mask, values).map_err(|e| e.to_string());
-    let (xs, ys) = (field(xs)?, field(ys)?);
+    let as_field = |values| field(mask, values).map_err(|e| e.to_string());
+    let (xs, ys) = (as_field(xs)?, as_field(ys)?);
     let filtered =
         filtered_error_vector(&[xs, ys], FilteredErrorOptions::default()).map_err(|e| error(&e))?;
     let mut cells = vec![Cell::fixed(filtered[d - 1], 5)];
