@@ -77,6 +77,7 @@ pub fn run(
     let mut report = Report::create(staging.dir())?;
     let mut written = Vec::new();
     let mut point_sections = String::new();
+    let mut references = pairs::References::new();
     for entry in manifest.masks() {
         let with_budget;
         let entry = match swaps_per_pixel {
@@ -103,12 +104,15 @@ pub fn run(
             && mask.header().value_map == ValueMap::Unit
             && mask.dims() >= 2
         {
-            point_sections += &pairs::mask_section(&pairs::PointMask {
-                name: entry.name.clone(),
-                size: (w as usize, h as usize, d as usize),
-                xs: vector::channel_values(&mask, 0),
-                ys: vector::channel_values(&mask, 1),
-            })?;
+            point_sections += &pairs::mask_section(
+                &pairs::PointMask {
+                    name: entry.name.clone(),
+                    size: (w as usize, h as usize, d as usize),
+                    xs: vector::channel_values(&mask, 0),
+                    ys: vector::channel_values(&mask, 1),
+                },
+                &mut references,
+            )?;
         }
         let kind = match (entry.kind.method(), entry.space) {
             (Method::VoidAndCluster(topology), _) => topology.name().to_owned(),

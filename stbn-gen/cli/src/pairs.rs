@@ -3,6 +3,7 @@
 //! STBN mask of the same size read at two offsets (what a renderer without vector masks does) and
 //! beside pairs of white noise.
 
+use std::collections::HashMap;
 use std::fmt::Write as _;
 
 use stbn_gen::analysis::{
@@ -40,10 +41,15 @@ pub const HEADING: &str = "\n## 2D integration (points in [0, 1)²)\n\n\
      frame. References: scalar STBN of the same size read at (x, y) and at the R2 offset \
      (`dimension(1)`), and two independent white-noise masks. Lower is better.\n";
 
+/// The two reference rows' cells (scalar STBN at two offsets, white pairs) per mask size, so that
+/// point masks of one size measure them once per run.
+pub type References = HashMap<(usize, usize, usize), [Vec<Cell>; 2]>;
+
 /// Markdown for one mask of the section: RMSE of Monte Carlo and EMA (α 0.1) estimates after 4,
 /// 16 and `depth` frames for each [`Integrand2D`], and the half-space filtered error at the last
-/// frame, for the mask and for the two references (generated here with seed 1).
-pub fn mask_section(mask: &PointMask) -> Result<String> {
+/// frame, for the mask and for the two references (generated here with seed 1, or taken from
+/// `references` when an earlier mask of this size measured them).
+pub fn mask_section(mask: &PointMask, references: &mut References) -> Result<String> {
     let mut md = String::new();
     let (w, h, d) = mask.size;
     let frames: Vec<usize> = [4, 16, d]
@@ -52,36 +58,42 @@ pub fn mask_section(mask: &PointMask) -> Result<String> {
         .collect::<std::collections::BTreeSet<_>>()
         .into_iter()
         .collect();
-    // The reference STBN mask generates on about one core (void-and-cluster is mostly serial):
-    // the mask's own figures are measured beside it.
-    let (stbn, mask_cells) = rayon::join(
-        || {
-            stbn_gen::generate(
-                &MaskSpec::new(w as u32, h as u32, d as u32, 1)
-                    .with_topology(EnergyTopology::Spatiotemporal),
-                Observer::default(),
-            )
-            .map_err(|e| format!("{}: reference STBN: {e}", mask.name))
-        },
-        || figures(mask, (&mask.xs, &mask.ys), &frames),
-    );
-    let stbn = stbn?.values();
-    let (ox, oy) = (
-        ((1.0 / PLASTIC) * w as f64) as usize,
-        ((1.0 / (PLASTIC * PLASTIC)) * h as f64) as usize,
-    );
-    let shifted = toroidal_shift(&field(mask, &stbn)?, ox, oy);
-    let white = (white_noise(w, h, d, 1), white_noise(w, h, d, 2));
+    let mask_cells = match references.get(&mask.size) {
+        Some(_) => figures(mask, (&mask.xs, &mask.ys), &frames)?,
+        None => {
+            // The reference STBN mask generates on about one core (void-and-cluster is mostly
+            // serial): the mask's own figures are measured beside it.
+            let (stbn, mask_cells) = rayon::join(
+                || {
+                    stbn_gen::generate(
+                        &MaskSpec::new(w as u32, h as u32, d as u32, 1)
+                            .with_topology(EnergyTopology::Spatiotemporal),
+                        Observer::default(),
+                    )
+                    .map_err(|e| format!("{}: reference STBN: {e}", mask.name))
+                },
+                || figures(mask, (&mask.xs, &mask.ys), &frames),
+            );
+            let stbn = stbn?.values();
+            let (ox, oy) = (
+                ((1.0 / PLASTIC) * w as f64) as usize,
+                ((1.0 / (PLASTIC * PLASTIC)) * h as f64) as usize,
+            );
+            let shifted = toroidal_shift(&field(mask, &stbn)?, ox, oy);
+            let white = (white_noise(w, h, d, 1), white_noise(w, h, d, 2));
+            let measured = [
+                figures(mask, (&stbn, &shifted), &frames)?,
+                figures(mask, (&white.0, &white.1), &frames)?,
+            ];
+            references.insert(mask.size, measured);
+            mask_cells?
+        }
+    };
+    let [stbn_cells, white_cells] = references[&mask.size].clone();
     let rows = [
-        (format!("`{}`", mask.name), mask_cells?),
-        (
-            "scalar STBN, two offsets".to_owned(),
-            figures(mask, (&stbn, &shifted), &frames)?,
-        ),
-        (
-            "white pairs".to_owned(),
-            figures(mask, (&white.0, &white.1), &frames)?,
-        ),
+        (format!("`{}`", mask.name), mask_cells),
+        ("scalar STBN, two offsets".to_owned(), stbn_cells),
+        ("white pairs".to_owned(), white_cells),
     ];
     let mut columns = vec![
         Column::markdown_only("samples", false),
@@ -153,12 +165,15 @@ mod tests {
         let xs = white_noise(w, h, d, 11);
         let ys = white_noise(w, h, d, 12);
         let md = HEADING.to_owned()
-            + &mask_section(&PointMask {
-                name: "pts".into(),
-                size: (w, h, d),
-                xs,
-                ys,
-            })
+            + &mask_section(
+                &PointMask {
+                    name: "pts".into(),
+                    size: (w, h, d),
+                    xs,
+                    ys,
+                },
+                &mut References::new(),
+            )
             .unwrap();
         let table: Vec<&str> = md.lines().filter(|l| l.starts_with('|')).collect();
         assert_eq!(table.len(), 5, "{md}"); // header, rule, three rows
@@ -175,5 +190,36 @@ mod tests {
             cells.iter().all(|c| c.is_finite() && *c >= 0.0),
             "{cells:?}"
         );
+    }
+
+    #[test]
+    fn masks_of_one_size_share_the_reference_rows() {
+        let (w, h, d) = (8, 8, 4);
+        let mask = |name: &str, seed| PointMask {
+            name: name.into(),
+            size: (w, h, d),
+            xs: white_noise(w, h, d, seed),
+            ys: white_noise(w, h, d, seed + 1),
+        };
+        let rows = |md: &str| -> Vec<String> {
+            md.lines()
+                .filter(|l| l.starts_with('|'))
+                .skip(2)
+                .map(str::to_owned)
+                .collect()
+        };
+        let mut references = References::new();
+        let first = rows(&mask_section(&mask("a", 11), &mut references).unwrap());
+        assert_eq!(references.len(), 1);
+        let second = rows(&mask_section(&mask("b", 21), &mut references).unwrap());
+        assert_ne!(first[0], second[0], "each mask's own row is its own");
+        assert_eq!(first[1..], second[1..], "the references are the same");
+        // A size already measured takes its rows from `references`, not from new references.
+        let cells = references[&(w, h, d)][0].len();
+        let marker = vec![Cell::text("taken from the cache"); cells];
+        references.insert((w, h, d), [marker.clone(), marker]);
+        let third = rows(&mask_section(&mask("c", 31), &mut references).unwrap());
+        assert!(third[1].contains("taken from the cache"), "{third:?}");
+        assert!(third[2].contains("taken from the cache"), "{third:?}");
     }
 }
