@@ -209,7 +209,8 @@ impl SwapKernel {
 /// The tile's pixel `t` holds `values[base + in_slice[t]]`.
 ///
 /// Out of line: inlined into the tile loop, its loop reloaded its pointers from the stack every
-/// candidate (64×64×32 Vec2, 64 swap passes, one thread, AVX2 build: 3.4–3.5 → 3.4 s).
+/// candidate (64×64×32 Vec2, 64 swap passes, one thread, AVX2 build, alternating runs: 3.5 →
+/// 3.4 s).
 #[inline(never)]
 fn partner<const D: usize>(
     rng: &mut ChaCha8Rng,
