@@ -459,9 +459,9 @@ impl Stbn<'_> {
     /// there, for an `out` of [`Vec2`] / [`Vec3`] / [`Vec4`] / [`VectorSample`]. The x sum
     /// wraps exactly, so `out` may be longer than the width (the row repeats).
     ///
-    /// Decodes runs of contiguous voxels in blocks, 2.4–5.6× faster than a call per voxel; a row
+    /// Decodes runs of contiguous voxels in blocks, 2.4–7.1× faster than a call per voxel; a row
     /// longer than the width decodes one period and copies it over the rest (1080p rows of a
-    /// 128-wide mask: 4.6–25× faster than a call per pixel; BENCHMARKS.md, "Runtime sampling").
+    /// 128-wide mask: 4.8–27× faster than a call per pixel; BENCHMARKS.md, "Runtime sampling").
     pub fn fill_vector_row<V: VectorOutput>(&self, x0: i32, y: i32, frame: u32, out: &mut [V]) {
         self.fill_vector_row_at(x0, y, frame, SampleOffset::ZERO, out);
     }
