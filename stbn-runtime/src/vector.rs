@@ -666,13 +666,14 @@ impl<V: VectorOutput> PlanVisitor for VoxelVisitor<'_, '_, V> {
 /// Decodes a run of contiguous voxels, the first with channel-0 element index `first`, into
 /// `out`: the steps of [`voxel_value`], so the same bits, in loops LLVM vectorises, block by
 /// block in passes: the element conversion, the values before normalisation, then (for unit
-/// values) their [`unit_scale`]s with the outputs. With `ONE_PASS` (the AVX2 build), values
-/// without scaling take one pass instead ([`fill_unscaled`]): 1080p Vec2 Unorm8 0.25 against
-/// 0.45 ms in blocks; without AVX2 it measured 1.8 against 0.75 ms, and for unit values one pass
-/// was up to 15% slower in either build. Identity-mapped values whose channels are the output's
-/// components (Vec2, Vec3, Vec4 masks into their own type) skip both: the element conversion
-/// writes the output's `f32`s (1080p Vec4 Unorm8 rows a mask width at a time: 2.2 → 4.0 G
-/// samples/s).
+/// values) their [`unit_scale`]s with the outputs. Identity-mapped values whose channels are the
+/// output's components (Vec2, Vec3, Vec4 masks into their own type) skip that: the element
+/// conversion writes the output's `f32`s (1080p Vec4 Unorm8 rows a mask width at a time: 2.2 →
+/// 4.0 G samples/s). With `ONE_PASS` (the AVX2 build), the other values without scaling (signed
+/// maps, a pdf channel, an output of another width) take one pass instead ([`fill_unscaled`]),
+/// measured on Vec2 Unorm8 rows per voxel: 0.25 against 0.45 ms per 1080p frame in blocks;
+/// without AVX2 one pass measured 1.8 against 0.75 ms, and for unit values up to 15% slower in
+/// either build.
 struct RunVisitor<'s, 'a, 'o, V, const ONE_PASS: bool> {
     mask: &'s Stbn<'a>,
     first: usize,
