@@ -328,7 +328,7 @@ impl MaskHeader {
     /// compressed with `compression`): sets `compression`, `payload_len` and `payload_crc32`.
     ///
     /// A payload longer than `u32::MAX` bytes records `u32::MAX`, which [`parse`](Self::parse)
-    /// rejects as not matching the blob; masks within [`MAX_DECODED_BYTES`](crate::MAX_DECODED_BYTES)
+    /// rejects as not matching the blob; masks within [`MAX_DECODED_BYTES`]
     /// never come close.
     #[must_use]
     pub fn with_payload(mut self, compression: Compression, stored: &[u8]) -> Self {

@@ -5,7 +5,8 @@
 //! x86-64, NEON's `fsqrt` on AArch64. IEEE 754 requires a correctly rounded square root, so
 //! every such CPU returns the same bits, and LLVM vectorises loops over it (the row fills take
 //! 4 voxels per `sqrtps`). Every other target computes the same correctly rounded value in
-//! software ([`sqrt_in_software`]), so a mask decodes to the same bits on every target.
+//! software (`sqrt_in_software`, compiled only there and in tests), so a mask decodes to the
+//! same bits on every target.
 //!
 //! The `unsafe` here has a measured reason: against a plain-`f32` reciprocal-square-root
 //! iteration (within 1 ulp, about 13 dependent operations, no `unsafe`), per-sample unit-vector
