@@ -712,18 +712,17 @@ impl<V: VectorOutput, const ONE_PASS: bool> PlanVisitor for RunVisitor<'_, '_, '
         let mask = self.mask;
         let encoding = mask.encoding();
         let bpe = encoding.bytes_per_element();
+        // The run's bytes, for the two single-loop paths (the blocks below slice their own).
+        let bytes = &mask.data()[self.first * bpe..(self.first + self.out.len() * S) * bpe];
         // Stored values kept as they are, every channel a component of the output: the run is
         // one element conversion over its bytes, straight into the output's components.
         if T::IDENTITY && C == S && size_of::<V>() == 4 * C {
-            let len = self.out.len() * S;
             if let Some(components) = V::components(self.out) {
-                let bytes = &mask.data()[self.first * bpe..(self.first + len) * bpe];
                 decode_elements(encoding, bytes, components);
                 return;
             }
         }
         if !T::UNIT && ONE_PASS {
-            let bytes = &mask.data()[self.first * bpe..(self.first + self.out.len() * S) * bpe];
             // One loop per encoding, so that each voxel's bytes are a constant-length chunk.
             let out = self.out;
             let first = self.first;
