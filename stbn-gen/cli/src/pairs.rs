@@ -4,6 +4,7 @@
 //! beside pairs of white noise.
 
 use std::collections::HashMap;
+use std::collections::hash_map::Entry;
 use std::fmt::Write as _;
 
 use stbn_gen::analysis::{
@@ -58,9 +59,9 @@ pub fn mask_section(mask: &PointMask, references: &mut References) -> Result<Str
         .collect::<std::collections::BTreeSet<_>>()
         .into_iter()
         .collect();
-    let mask_cells = match references.get(&mask.size) {
-        Some(_) => figures(mask, (&mask.xs, &mask.ys), &frames)?,
-        None => {
+    let mask_cells = match references.entry(mask.size) {
+        Entry::Occupied(_) => figures(mask, (&mask.xs, &mask.ys), &frames)?,
+        Entry::Vacant(slot) => {
             // The reference STBN mask generates on about one core (void-and-cluster is mostly
             // serial): the mask's own figures are measured beside it.
             let (stbn, mask_cells) = rayon::join(
@@ -85,7 +86,7 @@ pub fn mask_section(mask: &PointMask, references: &mut References) -> Result<Str
                 figures(mask, (&stbn, &shifted), &frames)?,
                 figures(mask, (&white.0, &white.1), &frames)?,
             ];
-            references.insert(mask.size, measured);
+            slot.insert(measured);
             mask_cells?
         }
     };
