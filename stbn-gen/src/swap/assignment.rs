@@ -139,7 +139,7 @@ impl SwapKernel {
             self.inv_sigma_value_sq,
         );
         for (cost, row) in costs.iter_mut().zip(factors.chunks_exact(padded)) {
-            *cost = weighted_sum(&scratch.weight[..taps], &row[..taps]);
+            *cost = weighted_sum(&scratch.pixel_weight, row);
         }
     }
 

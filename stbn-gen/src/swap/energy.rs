@@ -10,8 +10,9 @@ use super::SwapConfig;
 use crate::fastmath::{exp_neg, exp_neg_f32_lanes, inverse_cbrt_f32_lanes};
 use crate::torus::canonical;
 
-/// Partial sums of [`weighted_sum`] (`f64` lanes of an AVX2 register).
-const LANES: usize = 4;
+/// Partial sums of [`weighted_sum`]: four AVX2 registers of `f64`, two AVX-512 ones, so the
+/// additions' latency does not bound the loop.
+const LANES: usize = 16;
 
 /// Padding of the neighbour buffers: the value factor loop runs whole chunks of this many
 /// entries (`f32` lanes of an AVX-512 register, two AVX2 ones).
@@ -66,26 +67,41 @@ fn value_factor_lanes<const D: usize, const N: usize>(
 }
 
 /// `Σ weight[k] · factor[k]` (the factor widened to `f64`) over the shorter of the two, with
-/// four interleaved partial sums (a fixed order: deterministic): the energy of one pixel's taps.
+/// [`LANES`] interleaved partial sums added pairwise at the end, then the entries past the last
+/// whole chunk in order (a fixed order: deterministic): the energy of one pixel's taps.
 #[inline(always)]
 pub(super) fn weighted_sum(weight: &[f64], factor: &[f32]) -> f64 {
     let len = weight.len().min(factor.len());
     let (weight, factor) = (&weight[..len], &factor[..len]);
     let mut lanes = [0.0f64; LANES];
-    let whole = len / LANES * LANES;
-    for (w, f) in weight[..whole]
-        .chunks_exact(LANES)
-        .zip(factor[..whole].chunks_exact(LANES))
-    {
-        for ((lane, &w), &f) in lanes.iter_mut().zip(w).zip(f) {
-            *lane += w * f64::from(f);
-        }
+    let (weight_chunks, weight_rest) = weight.as_chunks::<LANES>();
+    let (factor_chunks, factor_rest) = factor.as_chunks::<LANES>();
+    for (w, f) in weight_chunks.iter().zip(factor_chunks) {
+        accumulate(&mut lanes, w, f);
     }
-    let rest = weight[whole..].iter().zip(&factor[whole..]);
-    rest.fold(
-        (lanes[0] + lanes[1]) + (lanes[2] + lanes[3]),
-        |s, (&w, &f)| s + w * f64::from(f),
-    )
+    let rest = weight_rest.iter().zip(factor_rest);
+    rest.fold(lanes_total(lanes), |s, (&w, &f)| s + w * f64::from(f))
+}
+
+/// `lanes[i] += weight[i] · factor[i]`, the factor widened to `f64`.
+#[inline(always)]
+fn accumulate(lanes: &mut [f64; LANES], weight: &[f64; LANES], factor: &[f32; LANES]) {
+    for ((lane, &w), &f) in lanes.iter_mut().zip(weight).zip(factor) {
+        *lane += w * f64::from(f);
+    }
+}
+
+/// The sum of [`LANES`] partial sums, added pairwise (a fixed order).
+#[inline(always)]
+fn lanes_total(mut lanes: [f64; LANES]) -> f64 {
+    let mut width = LANES / 2;
+    while width > 0 {
+        for i in 0..width {
+            lanes[i] += lanes[i + width];
+        }
+        width /= 2;
+    }
+    lanes[0]
 }
 
 /// `‖a − b‖²` in single precision, components in order: the value distance every energy uses

@@ -23,6 +23,9 @@ pub(super) struct Scratch {
     pub(super) index: Vec<usize>,
     /// Pair weight of each tap (the kernel's, the same for every pixel); 0 in the padding.
     pub(super) weight: Vec<f64>,
+    /// One pixel's tap weights, padded with zeros to whole [`FACTOR_LANES`]: sums over a padded
+    /// row of factors have no remainder to add one by one.
+    pub(super) pixel_weight: Vec<f64>,
     /// Squared distance from the neighbour's value to its centre's value before and after the
     /// swap (for `a`'s neighbours `‖va − n‖²` and `‖vb − n‖²`; for `b`'s the other way round).
     pub(super) before: Vec<f32>,
@@ -53,11 +56,14 @@ impl Scratch {
             .map(|t| t.2)
             .chain(kernel.temporal.iter().map(|t| t.1))
             .collect();
+        let mut pixel_weight = weight.clone();
+        pixel_weight.resize(taps.div_ceil(FACTOR_LANES) * FACTOR_LANES, 0.0);
         weight.extend_from_within(..);
         weight.resize(padded, 0.0);
         Scratch {
             index: vec![0; padded],
             weight,
+            pixel_weight,
             before: vec![0.0; padded],
             after: vec![0.0; padded],
             factor: vec![0.0; padded],
@@ -124,7 +130,8 @@ impl SwapKernel {
             .zip(self.spatial_tap(b, a))
             .map(|(ka, kb)| (ka, taps + kb));
         scratch.drop_pair_factors();
-        let after = weighted_sum(&scratch.weight[..scratch.len], &scratch.factor);
+        // Over the padding too (weight 0): whole chunks only.
+        let after = weighted_sum(&scratch.weight, &scratch.factor);
         scratch.pair_energy = match scratch.pair {
             Some((_, kb)) => {
                 scratch.weight[kb] * f64::from(value_factor::<D>(squared_distance(&va, &vb), inv))
