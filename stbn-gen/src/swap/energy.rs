@@ -10,8 +10,8 @@ use super::SwapConfig;
 use crate::fastmath::{exp_neg, exp_neg_f32_lanes, inverse_cbrt_f32_lanes};
 use crate::torus::canonical;
 
-/// Partial sums of [`weighted_sum`]: four AVX2 registers of `f64`, two AVX-512 ones, so the
-/// additions' latency does not bound the loop.
+/// Independent partial sums of [`weighted_sum`], so the additions' latency does not bound its
+/// loop (four did: two dependent chains of 2-lane additions in the AVX2 build).
 const LANES: usize = 16;
 
 /// Padding of the neighbour buffers: the value factor loop runs whole chunks of this many
