@@ -4,7 +4,7 @@
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 
-use super::energy::{FACTOR_LANES, SwapKernel, squared_distance, value_factors, weighted_sum};
+use super::energy::{SwapKernel, squared_distance, value_factors, weighted_sum};
 use super::pair::Scratch;
 use super::region::{Region, region_indices};
 use super::{PassPlan, TileResult};
@@ -108,8 +108,8 @@ impl SwapKernel {
     /// `c(p, v_c) = Σ_n w f(‖v_c − Vn‖²)` for every value `v_c` of `values`: the energies pixel `p`
     /// would have holding each, from the values `neighbours` of its taps (in
     /// [`SwapKernel::for_each_neighbour`]'s order). Leaves each value's per-tap factors in
-    /// `factors` (`taps` rounded up to whole [`FACTOR_LANES`] per value, value-major), for the
-    /// update of a kept permutation, and the energies in `costs`.
+    /// `factors` (`taps` rounded up to whole [`FACTOR_LANES`](super::energy::FACTOR_LANES) per
+    /// value, value-major), for the update of a kept permutation, and the energies in `costs`.
     #[inline(always)]
     fn pixel_costs<const D: usize, const L: usize>(
         &self,
@@ -125,7 +125,7 @@ impl SwapKernel {
             costs.fill(0.0);
             return;
         }
-        let padded = taps.div_ceil(FACTOR_LANES) * FACTOR_LANES;
+        let padded = scratch.pixel_weight.len();
         let entries = values.len() * padded;
         for (row, value) in distances.chunks_exact_mut(padded).zip(values) {
             for (d, n) in row[..taps].iter_mut().zip(neighbours) {
@@ -171,7 +171,7 @@ impl SwapKernel {
         let mut neighbours = vec![[0.0f32; D]; scratch.taps];
         // Per set pixel: its neighbours' indices, and each candidate value's per-tap distances
         // and factors (`padded` per value).
-        let padded = scratch.taps.div_ceil(FACTOR_LANES) * FACTOR_LANES;
+        let padded = scratch.pixel_weight.len();
         let mut neighbour_index = vec![0usize; k_max * scratch.taps];
         let mut distances = vec![0.0f32; k_max * padded];
         let mut factors = vec![0.0f32; k_max * k_max * padded];

@@ -23,8 +23,9 @@ pub(super) struct Scratch {
     pub(super) index: Vec<usize>,
     /// Pair weight of each tap (the kernel's, the same for every pixel); 0 in the padding.
     pub(super) weight: Vec<f64>,
-    /// One pixel's tap weights, padded with zeros to whole [`FACTOR_LANES`]: sums over a padded
-    /// row of factors have no remainder to add one by one.
+    /// One pixel's tap weights, padded with zeros to whole [`FACTOR_LANES`]: its length is that
+    /// of a padded row of one pixel's factors, and sums over such a row have no remainder to add
+    /// one by one.
     pub(super) pixel_weight: Vec<f64>,
     /// Squared distance from the neighbour's value to its centre's value before and after the
     /// swap (for `a`'s neighbours `‖va − n‖²` and `‖vb − n‖²`; for `b`'s the other way round).
