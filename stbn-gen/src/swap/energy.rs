@@ -43,15 +43,18 @@ fn distance_power<const D: usize, const N: usize>(s: [f32; N]) -> [f32; N] {
 }
 
 /// The value factor `exp(−x)`, `x = ‖a − b‖^(D/3) / σs²`, from `s = ‖a − b‖²` (computed in `f32`
-/// from the `f32` values, components in order), to a relative `4·10⁻⁵ · max(1, x)` for `x ≤ 86`
-/// (beyond, it is `e^−87`).
+/// from the `f32` values, components in order), to a relative `4·10⁻⁴ · max(1, x)` for `x ≤ 86`
+/// (beyond, it is `e^−87`): the cube root's error sets it; three components (no cube root) come
+/// within 1.1·10⁻⁵.
 ///
 /// This function *is* the energy's value term: every energy, cached or recomputed, goes through
 /// it, so they agree to the rounding of the `f64` sums. Single precision evaluates 8 lanes per
 /// AVX2 instruction instead of 4; together with a shorter polynomial (version 4's degree 7) that
 /// made the optimiser about 1.4× faster than an `f64` version with a degree-9 polynomial
 /// (64×64×32 Vec2, 16 swaps per pixel, AVX2, two runs each: 0.61–0.64 s against 0.88–0.89 s;
-/// `f64` with [`exp_neg`]'s degree 12 and four Newton steps took 1.06 s).
+/// `f64` with [`exp_neg`]'s degree 12 and four Newton steps took 1.06 s). The loop over it is
+/// bound by its number of operations, so the factor is no more accurate than the masks need
+/// ([`crate::fastmath`]).
 #[inline(always)]
 pub(super) fn value_factor<const D: usize>(s: f32, inv_sigma_value_sq: f32) -> f32 {
     value_factor_lanes::<D, 1>([s], inv_sigma_value_sq)[0]
@@ -389,7 +392,7 @@ mod tests {
                 check::<4>(inv_sigma_sq),
             ] {
                 assert!(
-                    worst < 4e-5,
+                    worst < 4e-4,
                     "worst relative error {worst} at 1/σ² {inv_sigma_sq}"
                 );
             }
