@@ -127,7 +127,7 @@ impl VectorSpec {
     pub const DEFAULT_SIGMA_VALUE: f64 = 1.0;
     /// Default budget in swaps proposed per pixel, run before
     /// [`VectorSpec::DEFAULT_ASSIGNMENT_PASSES`] assignment passes. Together they make Vec2 and
-    /// UnitVec3 at 128×128×64 in 29–38 s on two AVX2 cores, inside the 60 s target, with FAST's
+    /// UnitVec3 at 128×128×64 in 19–22 s on two cores running the AVX2 build, with FAST's
     /// filtered error 0.7% above that of 1024 swaps alone (3.3–4 min on AVX-512). BENCHMARKS.md
     /// ("Vector masks") has the curve, the times and the quality per budget, and what a much
     /// longer run still gains.
