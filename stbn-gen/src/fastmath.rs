@@ -44,8 +44,8 @@ pub(crate) fn exp_neg(x: f64) -> f64 {
 /// up to `x = 86`); results below `e^−87` come out as `e^−87` (≈ 1.6·10⁻³⁸). As `2^−y`, `y = x
 /// log₂e` rounded to single precision: `2^−k` from the bits of the nearest integer `k`, times a
 /// quartic for `2^f`, `f = k − y` in `[−½, ½]`, exact at `f = 0`, that interpolates `2^f` at the
-/// four Chebyshev nodes of `(2^f − 1) / f` (7·10⁻⁶ relative, as Taylor's degree 5 with one
-/// operation pair less). A cubic (2·10⁻⁴) measured the same report figures but a worse
+/// four Chebyshev nodes of `(2^f − 1) / f` (7·10⁻⁶ relative; Taylor's degree 5, one multiply-add
+/// more: 3.4·10⁻⁶). A cubic (2·10⁻⁴) measured the same report figures but a worse
 /// ambient-occlusion scene, over five seeds (BENCHMARKS.md, "Design decisions").
 ///
 /// Evaluated for `N` lanes one step at a time: the same operations per lane (the same bits for
@@ -70,9 +70,10 @@ pub(crate) fn exp_neg_f32_lanes<const N: usize>(x: [f32; N]) -> [f32; N] {
 /// `s^(−1/3)` in single precision for `s > 0` (huge but finite for `s = 0`), relative error
 /// below 2.1·10⁻⁴. A first guess from the bits of `s` (off by at most 3.5%), then one
 /// second-order step: with `ε = 1 − s r³`, `r (1 + ε/3 + 2ε²/9)`, three operations more than a
-/// Newton step and three fewer than two of them. One Newton step (2.4·10⁻³) raised the Vec2
-/// filtered error by 0.2%; two (1.2·10⁻⁵) buy nothing over this (BENCHMARKS.md, "Design
-/// decisions").
+/// Newton step and three fewer than two of them. One Newton step (2.4·10⁻³, with a cubic `exp`)
+/// measured a 0.2% higher Vec2 filtered error; with this step the 128×128×64 figures stay
+/// within the seeds' spread of those of two Newton steps (1.2·10⁻⁵) (BENCHMARKS.md, "Vector
+/// masks" and "Design decisions").
 /// Evaluated for `N` lanes one step at a time, as [`exp_neg_f32_lanes`].
 #[inline(always)]
 pub(crate) fn inverse_cbrt_f32_lanes<const N: usize>(s: [f32; N]) -> [f32; N] {
