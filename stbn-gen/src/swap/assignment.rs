@@ -176,7 +176,7 @@ impl SwapKernel {
         let slice = (tile.rw * tile.rh) as usize;
         let mut order: Vec<u32> = (0..n).collect();
         let mut near: Vec<u64> = Vec::with_capacity(n as usize);
-        let mut distances_to_anchor: Vec<f32> = Vec::with_capacity(n as usize);
+        let mut close = vec![0u64; n as usize];
         let mut set: Vec<u32> = Vec::with_capacity(k_max);
         let mut cost = vec![0.0f64; k_max * k_max];
         let mut perm = vec![0usize; k_max];
@@ -205,43 +205,35 @@ impl SwapKernel {
                 // Keys are `distance bits << 32 | position`: one integer comparison orders them
                 // (distances are never negative, so their bits order as they do).
                 let target = tile_values[anchor as usize];
-                distances_to_anchor.clear();
-                distances_to_anchor
-                    .extend(tile_values.iter().map(|v| squared_distance(&target, v)));
-                let key = |j: usize, d: f32| u64::from(d.to_bits()) << 32 | j as u64;
+                near.clear();
+                near.extend(tile_values.iter().enumerate().map(|(j, v)| {
+                    u64::from(squared_distance(&target, v).to_bits()) << 32 | j as u64
+                }));
                 // Most sets fill from the first few nearest, so those are selected and sorted
                 // first, and the rest of the shortlist only when the set is still short: the
                 // same order as sorting the whole shortlist. The first few are selected from
-                // the values within `reach` when at least that many are (then they hold the
-                // first few of all), else from all.
-                let first = ASSIGNMENT_FIRST_LOOK.min(n as usize);
-                let all_keys = |near: &mut Vec<u64>| {
-                    near.clear();
-                    near.extend(
-                        distances_to_anchor
-                            .iter()
-                            .enumerate()
-                            .map(|(j, &d)| key(j, d)),
-                    );
-                };
-                // The keys within `reach` packed at the front, without a branch.
-                all_keys(&mut near);
+                // the keys within `reach` (distance bits at most its bits), packed into `close`
+                // without a branch, when at least that many are (then they are the first few of
+                // all), else from all.
+                let first = ASSIGNMENT_FIRST_LOOK.min(near.len());
+                let bound = u64::from(reach.to_bits()) << 32 | u64::from(u32::MAX);
                 let mut within = 0;
-                for j in 0..near.len() {
-                    near[within] = near[j];
-                    within += usize::from(distances_to_anchor[j] <= reach);
+                for &key in &near {
+                    close[within] = key;
+                    within += usize::from(key <= bound);
                 }
-                if within >= first {
-                    near.truncate(within);
+                let from_close = within >= first;
+                let candidates = if from_close {
+                    &mut close[..within]
                 } else {
-                    all_keys(&mut near);
+                    &mut near[..]
+                };
+                if first < candidates.len() {
+                    candidates.select_nth_unstable(first - 1);
                 }
-                if first < near.len() {
-                    near.select_nth_unstable(first - 1);
-                }
-                near[..first].sort_unstable();
+                candidates[..first].sort_unstable();
                 // The next move's reach: twice this anchor's `first`-th squared distance.
-                reach = 2.0 * f32::from_bits((near[first - 1] >> 32) as u32);
+                reach = 2.0 * f32::from_bits((candidates[first - 1] >> 32) as u32);
                 set.clear();
                 let take = |candidates: &[u64], set: &mut Vec<u32>| {
                     for &key in candidates {
@@ -258,10 +250,9 @@ impl SwapKernel {
                         }
                     }
                 };
-                take(&near[..first], &mut set);
+                take(&candidates[..first], &mut set);
                 if set.len() < k_max && first < shortlist {
-                    if near.len() < n as usize {
-                        all_keys(&mut near);
+                    if from_close {
                         near.select_nth_unstable(first - 1);
                     }
                     let rest = &mut near[first..];

@@ -32,12 +32,12 @@
 //!
 //! The value factor `f` is, by definition, what one function computes in single precision from
 //! the `f32` values (`value_factor`: a polynomial `exp` and a cube root from one second-order
-//! step, within 4·10⁻⁴ of the exact factor); weights and sums are `f64`. Every energy, cached or recomputed, goes through
-//! it, so "lowers the energy" is exact for the energy the optimiser reports. It uses basic IEEE
-//! operations only (no platform `libm`, so the same bits everywhere) and no branches, so the
-//! loops over a footprint vectorise: 16 lanes per instruction on x86-64 CPUs with AVX-512, 8 with
-//! AVX2 (detected at run time; the same operations in the same order, so the same bits as the
-//! portable SSE2 build, tested).
+//! step, within 4·10⁻⁴ of the exact factor); weights and sums are `f64`. Every energy, cached or
+//! recomputed, goes through it, so "lowers the energy" is exact for the energy the optimiser
+//! reports. It uses basic IEEE operations only (no platform `libm`, so the same bits everywhere)
+//! and no branches, so the loops over a footprint vectorise: 16 lanes per instruction on x86-64
+//! CPUs with AVX-512, 8 with AVX2 (detected at run time; the same operations in the same order,
+//! so the same bits as the portable SSE2 build, tested).
 //!
 //! # Schedule
 //!
