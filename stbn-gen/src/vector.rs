@@ -108,9 +108,11 @@ pub struct VectorSpec {
     pub swaps_per_pixel: f64,
     /// Assignment passes run after the swap passes, in
     /// `0..=`[`VectorSpec::MAX_ASSIGNMENT_PASSES`]: in each, sets of up to 8 pixels with similar
-    /// values that do not interact get the best permutation of their values.
-    /// One costs about as much as 5–15 swap passes, and late in a run gains more energy than
-    /// they do; [`VectorSpec::DEFAULT_ASSIGNMENT_PASSES`] by default. 0 runs swaps only.
+    /// values that do not interact get the best permutation of their values (for values of at
+    /// most two parameters, the best by a second-order model of each pixel's energy).
+    /// One costs about as much as 2 swap passes (3 for `Vec3`, `Vec4`), and late in a run gains
+    /// more energy than they do; [`VectorSpec::DEFAULT_ASSIGNMENT_PASSES`] by default. 0 runs
+    /// swaps only.
     pub assignment_passes: u32,
     /// Pair weights `exp(−‖p−q‖²/σi²)` below this are dropped, in `(0, 1)`. The default 5·10⁻³
     /// keeps offsets up to `σi √ln 200 = 2.3 σi` (4.4 pixels at σi 1.9: 56 same-slice and 8
@@ -135,7 +137,7 @@ impl VectorSpec {
     /// Default number of assignment passes after the swaps. After 64 swap passes, assignment
     /// passes lower the energy and the filtered error more than the same time spent on swaps
     /// (BENCHMARKS.md, "Assignment passes").
-    pub const DEFAULT_ASSIGNMENT_PASSES: u32 = 12;
+    pub const DEFAULT_ASSIGNMENT_PASSES: u32 = 14;
     /// Default kernel truncation.
     pub const DEFAULT_KERNEL_TOLERANCE: f64 = 5e-3;
     /// Largest budget accepted.
@@ -291,6 +293,7 @@ impl From<&VectorSpec> for SwapConfig {
             height: spec.height,
             depth: spec.depth,
             dims: spec.space.dims(),
+            parameters: spec.space.parameters(),
             seed: spec.seed,
             sigma_image: spec.sigma_image,
             sigma_value: spec.sigma_value,

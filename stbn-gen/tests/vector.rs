@@ -399,7 +399,7 @@ fn vector_output_is_pinned_to_the_generator_version() {
     // Vec3, whose start differs; 9 the value factor, whose change moves only Vec2 at this size):
     // 16 frames, so every pass cuts them into two runs (`swap::TILE_FRAMES`), and two assignment
     // passes. Vec2, UnitVec3, Vec3, CosineHemisphere.
-    let pinned: [(u32, [u64; 4]); 3] = [
+    let pinned: [(u32, [u64; 4]); 4] = [
         (
             7,
             [
@@ -425,6 +425,15 @@ fn vector_output_is_pinned_to_the_generator_version() {
                 0xd409_efbe_ef6f_5595,
                 0x043a_983c_0c41_1360,
                 0x4ba1_edc0_e228_3dd1,
+            ],
+        ),
+        (
+            10,
+            [
+                0xe434_fcc5_e377_f97c,
+                0x93a0_108f_6613_ed0d,
+                0x043a_983c_0c41_1360,
+                0x3fc2_fe86_eab0_31e5,
             ],
         ),
     ];

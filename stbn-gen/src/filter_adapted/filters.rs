@@ -686,7 +686,7 @@ pub(crate) struct ScanTerm {
 }
 
 /// The integer pair weights of the distance value kernel, laid out for scanning footprints:
-/// per term, spatial taps `S` (`i64`, nominal total [`ScanKernel::SPATIAL_SCALE`]) and a
+/// per term, spatial taps `S` (`i64`, nominal total `2^`[`ScanKernel::SPATIAL_BITS`]) and a
 /// window of temporal weights `T` (`i16`, nominal total `2^`[`ScanKernel::TEMPORAL_BITS`]), so
 /// that `Σ_t T · v` over `i16` values of magnitude below 2¹³ is an exact `i32` and every full sum
 /// an exact `i64` below 2⁵⁰.

@@ -5,6 +5,7 @@ use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 
 use super::energy::{SwapKernel, squared_distance, value_factors, weighted_sum};
+use super::model::{CostModel, ModelScratch};
 use super::pair::Scratch;
 use super::region::{Region, region_indices};
 use super::{PassPlan, TileResult};
@@ -13,7 +14,7 @@ use crate::schedule::Tile;
 /// Largest set of an assignment pass.
 pub const MAX_ASSIGNMENT: u32 = 16;
 
-/// Pixels per set of the assignment passes [`crate::vector::generate_vector`] runs.
+/// Pixels per set of the assignment passes [`crate::generate_vector`] runs.
 pub const ASSIGNMENT_SET: u32 = 8;
 
 /// Preferred tile side of assignment passes, in pixels: sets of [`ASSIGNMENT_SET`] pixels that
@@ -128,7 +129,7 @@ impl SwapKernel {
         neighbours: &[[f32; D]],
         values: &[[f32; D]],
         (distances, factors): (&mut [f32], &mut [f32]),
-        scratch: &mut Scratch,
+        scratch: &Scratch,
         costs: &mut [f64],
     ) {
         let taps = scratch.taps;
@@ -170,7 +171,7 @@ impl SwapKernel {
             return result;
         }
         let k_max = plan.assignment as usize;
-        let mut scratch = Scratch::new(self);
+        let scratch = Scratch::new(self);
         let pixel = |i: u32| tile.local(i);
         let in_slice = region_indices(tile);
         let slice = (tile.rw * tile.rh) as usize;
@@ -181,13 +182,21 @@ impl SwapKernel {
         let mut cost = vec![0.0f64; k_max * k_max];
         let mut perm = vec![0usize; k_max];
         let mut tile_values: Vec<[f32; D]> = Vec::with_capacity(n as usize);
-        let mut neighbours = vec![[0.0f32; D]; scratch.taps];
-        // Per set pixel: its neighbours' indices, and each candidate value's per-tap distances
-        // and factors (`padded` per value).
+        // Per set pixel: its neighbours' values and indices, its model, its energy with its own
+        // value and with the value it takes, and its factors against each tap for each value
+        // (`padded` per value; with the model, only its own and the one it takes).
         let padded = scratch.pixel_weight.len();
-        let mut neighbour_index = vec![0usize; k_max * scratch.taps];
-        let mut distances = vec![0.0f32; k_max * padded];
+        let taps = scratch.taps;
+        let weight32: Vec<f32> = scratch.pixel_weight.iter().map(|&w| w as f32).collect();
+        let mut neighbours = vec![[0.0f32; D]; k_max * taps];
+        let mut neighbour_index = vec![0usize; k_max * taps];
+        let mut models = vec![CostModel::<D>::ZERO; k_max];
+        let mut model_scratch = ModelScratch::new(padded, D);
         let mut factors = vec![0.0f32; k_max * k_max * padded];
+        let slot = |r: usize, c: usize| (r * k_max + c) * padded..(r * k_max + c + 1) * padded;
+        let mut distances = vec![0.0f32; k_max * padded];
+        let mut own_energy = vec![0.0f64; k_max];
+        let mut new_energy = vec![0.0f64; k_max];
         let mut set_values: Vec<[f32; D]> = Vec::with_capacity(k_max);
         let shortlist = ASSIGNMENT_SHORTLIST.min(n as usize);
         let moves = (n as usize).div_ceil(k_max);
@@ -267,56 +276,84 @@ impl SwapKernel {
                 if k < 2 {
                     continue;
                 }
-                // Each pixel's neighbour values are read once and costed against every value.
+                // Each pixel's neighbour values are read once. Its energy with each of the set's
+                // values is computed exactly, or, where the space is at most two-dimensional,
+                // predicted by its model ([`CostModel`]); the permutation of least cost is then
+                // judged on exact energies.
                 set_values.clear();
                 set_values.extend(set.iter().map(|&j| tile_values[j as usize]));
-                let taps = scratch.taps;
                 for (r, &i) in set.iter().enumerate() {
                     let (x, y) = pixel(i);
                     let centre = base + in_slice[i as usize];
-                    let index = &mut neighbour_index[r * taps..(r + 1) * taps];
+                    let rows = r * taps..(r + 1) * taps;
+                    let (values, index) =
+                        (&mut neighbours[rows.clone()], &mut neighbour_index[rows]);
                     self.for_each_neighbour(&region.steps, (x, y, z), centre, |t, n| {
-                        neighbours[t] = region.value::<D>(n);
+                        values[t] = region.value::<D>(n);
                         index[t] = n;
                     });
-                    self.pixel_costs::<D, L>(
-                        &neighbours,
-                        &set_values,
-                        (
-                            &mut distances,
-                            &mut factors[r * k * padded..(r + 1) * k * padded],
-                        ),
-                        &mut scratch,
-                        &mut cost[r * k..(r + 1) * k],
-                    );
+                    let row = &mut cost[r * k..(r + 1) * k];
+                    if self.modelled_assignment {
+                        models[r] = CostModel::build::<L>(
+                            set_values[r],
+                            values,
+                            (&scratch.pixel_weight, &weight32),
+                            self.inv_sigma_value_sq,
+                            &mut factors[slot(r, r)],
+                            &mut model_scratch,
+                        );
+                        own_energy[r] = models[r].energy;
+                        for (cost, value) in row.iter_mut().zip(&set_values) {
+                            *cost = models[r].predict(value);
+                        }
+                    } else {
+                        let all = slot(r, 0).start..slot(r, k).start;
+                        let buffers = (&mut distances[..], &mut factors[all]);
+                        self.pixel_costs::<D, L>(values, &set_values, buffers, &scratch, row);
+                        own_energy[r] = row[r];
+                    }
                 }
                 min_cost_assignment(&cost[..k * k], k, &mut perm[..k]);
-                let before: f64 = (0..k).map(|r| cost[r * k + r]).sum();
-                let after: f64 = (0..k).map(|r| cost[r * k + perm[r]]).sum();
                 result.attempted += 1;
-                let delta = after - before;
+                if perm[..k].iter().enumerate().all(|(r, &c)| r == c) {
+                    continue;
+                }
+                // The exact change: each moved pixel's energy with its new value, less its own.
+                let mut delta = 0.0;
+                for r in (0..k).filter(|&r| perm[r] != r) {
+                    new_energy[r] = if self.modelled_assignment {
+                        let buffers = (&mut distances[..], &mut factors[slot(r, perm[r])]);
+                        let (values, to) = (&neighbours[r * taps..(r + 1) * taps], perm[r]);
+                        let mut energy = [0.0];
+                        let value = &set_values[to..to + 1];
+                        self.pixel_costs::<D, L>(values, value, buffers, &scratch, &mut energy);
+                        energy[0]
+                    } else {
+                        cost[r * k + perm[r]]
+                    };
+                    delta += new_energy[r] - own_energy[r];
+                }
                 if delta >= -self.margin * k as f64 {
                     continue;
                 }
                 result.accepted += 1;
                 result.delta += delta;
                 // The neighbours' energies change by `w (f(to) − f(from))` per tap: both
-                // factors are in the cost matrix's rows (the set's pixels do not interact, so
-                // their neighbours keep their values).
+                // factors are at hand (the set's pixels do not interact, so their neighbours
+                // keep their values).
                 for (r, &i) in set.iter().enumerate() {
                     if perm[r] == r {
                         continue;
                     }
-                    let row = &factors[r * k * padded..(r + 1) * k * padded];
-                    let from = &row[r * padded..r * padded + taps];
-                    let to = &row[perm[r] * padded..perm[r] * padded + taps];
+                    let from = &factors[slot(r, r)][..taps];
+                    let to = &factors[slot(r, perm[r])][..taps];
                     let index = &neighbour_index[r * taps..(r + 1) * taps];
                     for (t, &nb) in index.iter().enumerate() {
                         region.energy[nb] +=
                             scratch.weight[t] * (f64::from(to[t]) - f64::from(from[t]));
                     }
                     let centre = base + in_slice[i as usize];
-                    region.energy[centre] = cost[r * k + perm[r]];
+                    region.energy[centre] = new_energy[r];
                 }
                 for (r, &i) in set.iter().enumerate() {
                     let to = set_values[perm[r]];

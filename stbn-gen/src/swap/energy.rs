@@ -66,7 +66,17 @@ fn value_factor_lanes<const D: usize, const N: usize>(
     s: [f32; N],
     inv_sigma_value_sq: f32,
 ) -> [f32; N] {
-    exp_neg_f32_lanes(distance_power::<D, N>(s).map(|x| x * inv_sigma_value_sq))
+    exp_neg_f32_lanes(value_argument_lanes::<D, N>(s, inv_sigma_value_sq))
+}
+
+/// The argument `x = ‖a − b‖^(D/3) / σs²` of the value factor `exp(−x)` of `N` squared
+/// distances.
+#[inline(always)]
+fn value_argument_lanes<const D: usize, const N: usize>(
+    s: [f32; N],
+    inv_sigma_value_sq: f32,
+) -> [f32; N] {
+    distance_power::<D, N>(s).map(|x| x * inv_sigma_value_sq)
 }
 
 /// `Σ weight[k] · factor[k]` (the factor widened to `f64`) over the shorter of the two, with
@@ -148,6 +158,24 @@ pub(super) fn value_factors<const D: usize, const L: usize>(
     }
 }
 
+/// [`value_factors`], also leaving each entry's argument `x` (the factor is `exp(−x)`) in
+/// `argument`: the same operations for the factors, so the same bits.
+#[inline(always)]
+pub(super) fn value_factors_and_arguments<const D: usize, const L: usize>(
+    distance: &[f32],
+    (factor, argument): (&mut [f32], &mut [f32]),
+    inv_sigma_value_sq: f32,
+) {
+    const { assert!(L >= 1 && FACTOR_LANES.is_multiple_of(L)) };
+    let (factor, _) = factor.as_chunks_mut::<L>();
+    let (argument, _) = argument.as_chunks_mut::<L>();
+    let (distance, _) = distance.as_chunks::<L>();
+    for ((f, x), &s) in factor.iter_mut().zip(argument.iter_mut()).zip(distance) {
+        *x = value_argument_lanes::<D, L>(s, inv_sigma_value_sq);
+        *f = exp_neg_f32_lanes(*x);
+    }
+}
+
 /// The truncated, folded pair weights of one vector mask's energy and the value factor's
 /// parameters.
 #[derive(Clone, Debug)]
@@ -175,6 +203,9 @@ pub struct SwapKernel {
     pub(super) inv_sigma_value_sq: f32,
     /// Deltas must be below `−margin` for a swap to be accepted.
     pub(super) margin: f64,
+    /// Whether assignment passes rank permutations by each pixel's [`CostModel`](super::model)
+    /// (values with at most two parameters) instead of exact energies.
+    pub(super) modelled_assignment: bool,
 }
 
 impl SwapKernel {
@@ -251,6 +282,7 @@ impl SwapKernel {
             temporal,
             inv_sigma_value_sq: (1.0 / (config.sigma_value * config.sigma_value)) as f32,
             margin: 1e-11 * total,
+            modelled_assignment: config.parameters <= 2,
         }
     }
 

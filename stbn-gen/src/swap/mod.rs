@@ -68,15 +68,23 @@
 //! tap), so permuting their values changes the energy by
 //! `Σ_i c(p_i, v_π(i)) − Σ_i c(p_i, v_i)`, where `c(p, v) = Σ_{n ∈ N(p)} w f(‖v − Vn‖²)`: the
 //! pixels' neighbours stay fixed, so the terms separate, and the best of all k! permutations is a
-//! linear assignment problem, solved exactly by the Hungarian method in O(k³). A pair swap is the
-//! case k = 2. The best permutation is kept if it lowers the energy by more than `k` margins; the
-//! pixel energies are updated as for a swap. Tiles are [`ASSIGNMENT_TILE_TARGET`] pixels wide and
-//! run on the same schedule, so the passes are deterministic for any thread count (tested).
+//! linear assignment problem, solved by the Hungarian method in O(k³). A pair swap is the case
+//! k = 2. Where values have at most two parameters (every space but `Vec3` and `Vec4`), the
+//! costs it is solved on are not the k² exact energies but each pixel's second-order model of
+//! `c(p, ·)` around its own value (`model`), built from the same per-tap factors as `c(p, v_p)`
+//! at about 1.6 times their cost; the chosen permutation's energies are then computed exactly
+//! (one row per moved pixel). Either way the permutation is kept only if its exact change is
+//! below `k` margins; the pixel energies are updated as for a swap. Tiles are
+//! [`ASSIGNMENT_TILE_TARGET`] pixels wide and run on the same schedule, so the passes are
+//! deterministic for any thread count (tested).
 //!
 //! Why: once the swap passes have run, improving swaps are scarce, but improving permutations of
 //! similar values are not, and an assignment pass lowers the energy and the filtered error more
-//! than the same time spent on swaps. BENCHMARKS.md ("Vector masks", "Assignment passes") has
-//! the figures and the split of the default budget between the two moves.
+//! than the same time spent on swaps. The model picks permutations almost as good as the exact
+//! costs' in a third of the energy evaluations (sets of 8: 8 models and the moved rows instead
+//! of 64 rows); in 3- and 4-dimensional spaces similar values lie further apart and it is not
+//! good enough. BENCHMARKS.md ("Vector masks", "Design decisions") has the figures and the
+//! split of the default budget between the two moves.
 //!
 //! # Modules
 //!
@@ -85,10 +93,12 @@
 //!   region) and the neighbours of a pixel in one.
 //! - `pair`: exact swap deltas, the update of a kept swap, and a tile's proposals.
 //! - `assignment`: the Hungarian method and a tile's assignment moves.
+//! - `model`: the second-order model of a pixel's energy that ranks an assignment's permutations.
 //! - `simd`: the tile loop compiled for AVX-512, AVX2 or the portable baseline.
 
 mod assignment;
 mod energy;
+mod model;
 mod pair;
 mod region;
 mod simd;
@@ -123,6 +133,8 @@ pub struct SwapConfig {
     pub depth: u32,
     /// Components per value, `1..=4`.
     pub dims: usize,
+    /// Parameters per value ([`crate::SampleSpace`]'s intrinsic dimension), `1..=dims`.
+    pub parameters: usize,
     /// Seed of the tile grids and the proposals.
     pub seed: u64,
     /// σi in pixels (and frames), finite, `> 0`.
