@@ -57,7 +57,7 @@
 //!
 //! Each frame holds a stratified sample set of the spec's [`SampleSpace`], permuted to be blue
 //! in space and time. The default budget is 64 swap passes
-//! ([`VectorSpec::DEFAULT_SWAPS_PER_PIXEL`]) followed by 12 assignment passes
+//! ([`VectorSpec::DEFAULT_SWAPS_PER_PIXEL`]) followed by 14 assignment passes
 //! ([`VectorSpec::DEFAULT_ASSIGNMENT_PASSES`]).
 //!
 //! ```
@@ -66,7 +66,7 @@
 //! let mut trace = EnergyTrace::default();
 //! let volume = generate_vector(&spec, Observer::default().with_trace(&mut trace)).unwrap();
 //! assert_eq!(volume.value(3, 5, 1).len(), 2);
-//! // The energy before the swaps, then after each of the 2 swap and 12 assignment passes.
+//! // The energy before the swaps, then after each of the 2 swap and 14 assignment passes.
 //! assert_eq!(trace.points.len(), 1 + 2 + VectorSpec::DEFAULT_ASSIGNMENT_PASSES as usize);
 //! assert!(trace.points.last().unwrap().energy < trace.points[0].energy);
 //! ```

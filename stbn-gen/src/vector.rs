@@ -110,8 +110,8 @@ pub struct VectorSpec {
     /// `0..=`[`VectorSpec::MAX_ASSIGNMENT_PASSES`]: in each, sets of up to 8 pixels with similar
     /// values that do not interact get the best permutation of their values (for values of at
     /// most two parameters, the best by a second-order model of each pixel's energy).
-    /// One costs about as much as 2 swap passes (3 for `Vec3`, `Vec4`), and late in a run gains
-    /// more energy than they do; [`VectorSpec::DEFAULT_ASSIGNMENT_PASSES`] by default. 0 runs
+    /// One costs about as much as 2–3 swap passes (4 for `Vec4`), and late in a run gains more
+    /// energy than they do; [`VectorSpec::DEFAULT_ASSIGNMENT_PASSES`] by default. 0 runs
     /// swaps only.
     pub assignment_passes: u32,
     /// Pair weights `exp(−‖p−q‖²/σi²)` below this are dropped, in `(0, 1)`. The default 5·10⁻³
@@ -129,7 +129,7 @@ impl VectorSpec {
     pub const DEFAULT_SIGMA_VALUE: f64 = 1.0;
     /// Default budget in swaps proposed per pixel, run before
     /// [`VectorSpec::DEFAULT_ASSIGNMENT_PASSES`] assignment passes. Together they make Vec2 and
-    /// UnitVec3 at 128×128×64 in 19–22 s on two cores running the AVX2 build, with FAST's
+    /// UnitVec3 at 128×128×64 in 18–20 s on two cores running the AVX2 build, with FAST's
     /// filtered error 0.7% above that of 1024 swaps alone (3.3–4 min on AVX-512). BENCHMARKS.md
     /// ("Vector masks") has the curve, the times and the quality per budget, and what a much
     /// longer run still gains.
