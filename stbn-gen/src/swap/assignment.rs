@@ -277,7 +277,7 @@ impl SwapKernel {
                     continue;
                 }
                 // Each pixel's neighbour values are read once. Its energy with each of the set's
-                // values is computed exactly, or, where the space is at most two-dimensional,
+                // values is computed exactly, or, where values have at most two parameters,
                 // predicted by its model ([`CostModel`]); the permutation of least cost is then
                 // judged on exact energies.
                 set_values.clear();

@@ -71,9 +71,8 @@ impl<const D: usize> CostModel<D> {
 
     /// The model of the pixel holding `own` whose taps hold `neighbours` (the kernel's tap
     /// order) with weights `weight` (padded with zeros to whole [`FACTOR_LANES`]; `weight32`
-    /// the same in single precision). Leaves the
-    /// value factors of `own` against each tap in `factor` (0 past the taps), the ones
-    /// [`weighted_sum`] adds to the energy.
+    /// the same in single precision). Leaves the value factors of `own` against each tap in
+    /// `factor` (padded like `weight`): the ones [`weighted_sum`] adds to the energy.
     #[inline(always)]
     pub(super) fn build<const L: usize>(
         own: [f32; D],
@@ -123,7 +122,8 @@ impl<const D: usize> CostModel<D> {
         }
         let difference = &scratch.difference;
         let row = |c: usize| &difference[c * padded..(c + 1) * padded];
-        let trace = 2.0 * lane_sum(&scratch.first);
+        // The coefficient of the identity in H.
+        let isotropic = 2.0 * lane_sum(&scratch.first);
         let mut model = CostModel {
             own,
             energy,
@@ -144,7 +144,7 @@ impl<const D: usize> CostModel<D> {
                 model.hessian[c][e] = h;
                 model.hessian[e][c] = h;
             }
-            model.hessian[c][c] += trace;
+            model.hessian[c][c] += isotropic;
         }
         model
     }
