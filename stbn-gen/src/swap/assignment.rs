@@ -29,10 +29,15 @@ const ASSIGNMENT_SHORTLIST: usize = 256;
 const ASSIGNMENT_FIRST_LOOK: usize = 32;
 
 /// The permutation `out` (row `i` gets column `out[i]`) of least total `cost` (`k × k`, row
-/// major, `k ≤` [`MAX_ASSIGNMENT`]): the Hungarian method with potentials, O(k³).
+/// major, `k ≤` [`MAX_ASSIGNMENT`], every cost finite): the Hungarian method with potentials,
+/// O(k³).
 /// Deterministic: of equal candidates it takes the lowest column, as a scan in column order
 /// does. Sets of up to [`ASSIGNMENT_SET`] pixels run an 8-lane build, larger ones a 16-lane one.
 fn min_cost_assignment(cost: &[f64], k: usize, out: &mut [usize]) {
+    debug_assert!(
+        cost.iter().all(|c| c.is_finite()),
+        "non-finite assignment costs"
+    );
     if k <= ASSIGNMENT_SET as usize {
         hungarian::<{ ASSIGNMENT_SET as usize }>(cost, k, out);
     } else {

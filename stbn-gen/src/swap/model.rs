@@ -106,7 +106,9 @@ impl<const D: usize> CostModel<D> {
         let factor = &mut factor[..padded];
         value_factors_and_arguments::<D, L>(s, (factor, &mut scratch.argument), inv_sigma_value_sq);
         let energy = weighted_sum(weight, factor);
-        // w f'(s) and w f''(s), from x and f: the padding (x = 0, weight 0) gives 0.
+        // w f'(s) and w f''(s), from x and f: the padding (x = 0, weight 0) gives 0. Where the
+        // factor is clamped (x ≥ 87, or x NaN from 0 · ∞ when 1/σs² overflows single precision)
+        // it does not change with the value: no derivatives, so the model stays finite.
         let p = D as f32 / 6.0;
         let (x, f, w) = (
             &scratch.argument[..padded],
@@ -117,8 +119,11 @@ impl<const D: usize> CostModel<D> {
         for t in 0..padded {
             let u = 1.0 / s[t].max(MIN_SQUARED_DISTANCE);
             let wpxf = w[t] * p * x[t] * f[t];
-            first[t] = -wpxf * u;
-            second[t] = wpxf * (p * x[t] - p + 1.0) * u * u;
+            (first[t], second[t]) = if x[t] < 87.0 {
+                (-wpxf * u, wpxf * (p * x[t] - p + 1.0) * u * u)
+            } else {
+                (0.0, 0.0)
+            };
         }
         let difference = &scratch.difference;
         let row = |c: usize| &difference[c * padded..(c + 1) * padded];

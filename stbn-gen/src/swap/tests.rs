@@ -196,10 +196,16 @@ fn extreme_shapes_generate_and_keep_their_multisets() {
 
 #[test]
 fn tiny_and_huge_value_sigma_terminate() {
-    for sigma_value in [1e-6, 1e6] {
+    // Vec3's assignment passes cost exactly, Vec2's on models; 1e-20 overflows 1/σs² in single
+    // precision, 1e20 underflows it.
+    let spaces = [SampleSpace::Vec { dims: 3 }, SampleSpace::Vec { dims: 2 }];
+    for (sigma_value, space) in [1e-20, 1e-6, 1e6, 1e20]
+        .into_iter()
+        .flat_map(|s| spaces.iter().map(move |space| (s, space.clone())))
+    {
         let spec = VectorSpec {
             sigma_value,
-            ..VectorSpec::new(16, 12, 4, 2, SampleSpace::Vec { dims: 3 }).with_swaps_per_pixel(3.0)
+            ..VectorSpec::new(16, 12, 4, 2, space).with_swaps_per_pixel(3.0)
         };
         let (before, _) = generate_with_trace(&spec.clone().unoptimised()).unwrap();
         let (after, trace) = generate_with_trace(&spec).unwrap();
