@@ -72,17 +72,18 @@
 //! k = 2. Where values have at most two parameters (every space but `Vec3` and `Vec4`), the
 //! costs it is solved on are not the k² exact energies but each pixel's second-order model of
 //! `c(p, ·)` around its own value (`model`), built from the same per-tap factors as `c(p, v_p)`;
-//! the chosen permutation's energies are then computed exactly (one row per moved pixel). Either way the permutation is kept only if its exact change is
-//! below `k` margins; the pixel energies are updated as for a swap. Tiles are
-//! [`ASSIGNMENT_TILE_TARGET`] pixels wide and run on the same schedule, so the passes are
-//! deterministic for any thread count (tested).
+//! the chosen permutation's energies are then computed exactly (one row per moved pixel).
+//! Either way the permutation is kept only if its exact change is below `k` margins; the pixel
+//! energies are updated as for a swap. Tiles are [`ASSIGNMENT_TILE_TARGET`] pixels wide and run
+//! on the same schedule, so the passes are deterministic for any thread count (tested).
 //!
 //! Why: once the swap passes have run, improving swaps are scarce, but improving permutations of
 //! similar values are not, and an assignment pass lowers the energy and the filtered error more
 //! than the same time spent on swaps. The model picks permutations almost as good as the exact
 //! costs' from at most 16 rows of factors (8 models, one row per moved pixel) instead of 64; in
-//! 3- and 4-dimensional spaces similar values lie further apart and it is not good enough. BENCHMARKS.md ("Vector masks", "Design decisions") has the figures and the
-//! split of the default budget between the two moves.
+//! 3- and 4-dimensional spaces similar values lie further apart and it is not good enough.
+//! BENCHMARKS.md ("Vector masks", "Design decisions") has the figures and the split of the
+//! default budget between the two moves.
 //!
 //! # Modules
 //!
