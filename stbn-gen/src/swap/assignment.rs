@@ -187,15 +187,14 @@ impl SwapKernel {
         let mut cost = vec![0.0f64; k_max * k_max];
         let mut perm = vec![0usize; k_max];
         let mut tile_values: Vec<[f32; D]> = Vec::with_capacity(n as usize);
-        // Per set pixel: its neighbours' values and indices, its model, its energy with its own
-        // value and with the value it takes, and its factors against each tap for each value
+        // Per set pixel: its neighbours' values and indices, its energy with its own value and
+        // with the value it takes, and its factors against each tap for each value
         // (`padded` per value; with the model, only its own and the one it takes).
         let padded = scratch.pixel_weight.len();
         let taps = scratch.taps;
         let weight32: Vec<f32> = scratch.pixel_weight.iter().map(|&w| w as f32).collect();
         let mut neighbours = vec![[0.0f32; D]; k_max * taps];
         let mut neighbour_index = vec![0usize; k_max * taps];
-        let mut models = vec![CostModel::<D>::ZERO; k_max];
         let mut model_scratch = ModelScratch::new(padded, D);
         let mut factors = vec![0.0f32; k_max * k_max * padded];
         let slot = |r: usize, c: usize| (r * k_max + c) * padded..(r * k_max + c + 1) * padded;
@@ -299,7 +298,7 @@ impl SwapKernel {
                     });
                     let row = &mut cost[r * k..(r + 1) * k];
                     if self.modelled_assignment {
-                        models[r] = CostModel::build::<L>(
+                        let model = CostModel::build::<L>(
                             set_values[r],
                             values,
                             (&scratch.pixel_weight, &weight32),
@@ -307,9 +306,9 @@ impl SwapKernel {
                             &mut factors[slot(r, r)],
                             &mut model_scratch,
                         );
-                        own_energy[r] = models[r].energy;
+                        own_energy[r] = model.energy;
                         for (cost, value) in row.iter_mut().zip(&set_values) {
-                            *cost = models[r].predict(value);
+                            *cost = model.predict(value);
                         }
                     } else {
                         let all = slot(r, 0).start..slot(r, k).start;

@@ -61,14 +61,6 @@ impl ModelScratch {
 }
 
 impl<const D: usize> CostModel<D> {
-    /// A model of no energy at the origin (a placeholder until [`CostModel::build`]).
-    pub(super) const ZERO: CostModel<D> = CostModel {
-        own: [0.0; D],
-        energy: 0.0,
-        gradient: [0.0; D],
-        hessian: [[0.0; D]; D],
-    };
-
     /// The model of the pixel holding `own` whose taps hold `neighbours` (the kernel's tap
     /// order) with weights `weight` (padded with zeros to whole [`FACTOR_LANES`]; `weight32`
     /// the same in single precision). Leaves the value factors of `own` against each tap in
@@ -89,7 +81,9 @@ impl<const D: usize> CostModel<D> {
             // A kernel with no taps: no energy, whatever the value.
             return CostModel {
                 own,
-                ..CostModel::ZERO
+                energy: 0.0,
+                gradient: [0.0; D],
+                hessian: [[0.0; D]; D],
             };
         }
         let s = &mut scratch.squared;
@@ -201,7 +195,7 @@ fn lane_dot(a: &[f32], b: &[f32]) -> f32 {
 mod tests {
     use super::*;
     use crate::rng::keyed_rng;
-    use crate::swap::energy::{squared_distance, value_factor};
+    use crate::swap::energy::value_factor;
     use rand::RngExt;
 
     /// `c(p, v) = Σ w exp(−‖v − n‖^(D/3))` in double precision: the smooth energy the single
