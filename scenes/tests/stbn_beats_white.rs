@@ -117,9 +117,10 @@ fn ambient_occlusion() {
     };
     let scene = AmbientOcclusion::new(IMAGE, IMAGE, Heightfield::town(64, 1), params);
     let ratios = ratios(&scene, NoiseKind::StbnVectors, NoiseKind::WhiteVectors);
-    // Measured: 0.704, 0.670, 0.659, 0.607 (GENERATOR_VERSION 10, default budget). The ratios
+    // Measured: 0.698, 0.656, 0.658, 0.617 (GENERATOR_VERSION 11, default budget). The ratios
     // vary with the seed more than between recent versions: over seeds 1–5 their means are
-    // 0.708, 0.666, 0.627, 0.605 (blurred: 0.586–0.659); version 9 measured 0.710, 0.667,
-    // 0.628, 0.615 (0.570–0.653), version 6 0.716, 0.673, 0.636, 0.606 (0.573–0.643).
-    assert_at_most(scene.name(), &ratios, [0.71, 0.67, 0.66, 0.61]);
+    // 0.701, 0.656, 0.632, 0.611 (blurred: 0.576–0.658); version 10 (the cosine hemisphere's
+    // Hilbert-order start) measured 0.708, 0.666, 0.627, 0.605 (0.586–0.659), version 9 0.710,
+    // 0.667, 0.628, 0.615 (0.570–0.653), version 6 0.716, 0.673, 0.636, 0.606 (0.573–0.643).
+    assert_at_most(scene.name(), &ratios, [0.70, 0.66, 0.66, 0.62]);
 }

@@ -130,7 +130,7 @@ pub use volume::Volume;
 /// given spec, and changes whenever one of them can return a different mask for an equal spec:
 /// an algorithm, tie-break, kernel, arithmetic, RNG or default-budget change. Caches of
 /// generated masks include it in their keys; tests pin the output of reference specs to it.
-pub const GENERATOR_VERSION: u32 = 10;
+pub const GENERATOR_VERSION: u32 = 11;
 
 /// Generates the scalar STBN mask `spec` describes: void-and-cluster over the energy of
 /// `spec.topology`. [`Progress`] counts pixels ranked; the trace is empty.

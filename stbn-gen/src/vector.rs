@@ -4,11 +4,11 @@
 //! Each slice starts as a stratified sample set of the [`SampleSpace`]
 //! ([`SampleSpace::stratified_sampler`]), arranged as [`InitialArrangement`] says: by default
 //! sorted along a Hilbert curve of value space and handed out in the rank order of a scalar STBN
-//! mask, so similar values start far apart in space and time (for Vec2 and Vec3, each component
-//! follows a scalar STBN mask of its own). The swap optimiser
-//! ([`SwapOptimizer`]) then permutes the values within each slice to lower the spatiotemporal
-//! energy of the paper's §4.2. A slice's multiset of values never changes, so every frame on its
-//! own stays a stratified sample set of the space.
+//! mask, so similar values start far apart in space and time (for Vec2 and Vec3 each component,
+//! for the cosine hemisphere each parameter, follows a scalar STBN mask of its own). The swap
+//! optimiser ([`SwapOptimizer`]) then permutes the values within each slice to lower the
+//! spatiotemporal energy of the paper's §4.2. A slice's multiset of values never changes, so
+//! every frame on its own stays a stratified sample set of the space.
 
 use std::fmt;
 
@@ -54,14 +54,17 @@ pub enum InitialArrangement {
 impl InitialArrangement {
     /// The start [`VectorSpec::new`] picks for `space`: [`InitialArrangement::ScalarStbnPerAxis`]
     /// for [`SampleSpace::Vec`] masks of two and three components (each component is one
-    /// parameter, so each starts close to a scalar STBN mask), [`InitialArrangement::ScalarStbn`]
-    /// for the rest. The per-axis start measured a higher filtered error on `Vec4`, mixed figures
-    /// on the sphere, the circle and the uniform hemisphere, and on the cosine hemisphere better
-    /// report figures but no better ambient occlusion in the scenes crate (BENCHMARKS.md, "Design
-    /// decisions").
+    /// parameter, so each starts close to a scalar STBN mask) and for the cosine hemisphere
+    /// (lower report figures, temporal low band −12%; in the scenes crate 1–2% lower per-pixel
+    /// ambient-occlusion error, blurred within ±2%), [`InitialArrangement::ScalarStbn`] for the
+    /// rest. The per-axis start measured a higher filtered error on `Vec4`, and on the sphere and
+    /// the uniform hemisphere lower low bands but up to 2% higher integration errors
+    /// (BENCHMARKS.md, "Design decisions").
     pub fn default_for(space: &SampleSpace) -> InitialArrangement {
         match space {
-            SampleSpace::Vec { dims: 2 | 3 } => InitialArrangement::ScalarStbnPerAxis,
+            SampleSpace::Vec { dims: 2 | 3 } | SampleSpace::CosineHemisphere => {
+                InitialArrangement::ScalarStbnPerAxis
+            }
             _ => InitialArrangement::ScalarStbn,
         }
     }
@@ -136,7 +139,7 @@ impl VectorSpec {
     pub const DEFAULT_SWAPS_PER_PIXEL: f64 = 64.0;
     /// Default number of assignment passes after the swaps. After 64 swap passes, assignment
     /// passes lower the energy and the filtered error more than the same time spent on swaps
-    /// (BENCHMARKS.md, "Assignment passes").
+    /// (BENCHMARKS.md, "Assignment passes and budgets").
     pub const DEFAULT_ASSIGNMENT_PASSES: u32 = 14;
     /// Default kernel truncation.
     pub const DEFAULT_KERNEL_TOLERANCE: f64 = 5e-3;

@@ -397,10 +397,11 @@ fn vector_output_is_pinned_to_the_generator_version() {
     // If this fails, the vector generator's output changed: bump `GENERATOR_VERSION` (so caches
     // regenerate) and record the new digests here. Pinned from version 7 on (8 changed Vec2 and
     // Vec3, whose start differs; 9 the value factor, whose change moves only Vec2 at this size;
-    // 10 the modelled assignment passes, which move every space but Vec3):
+    // 10 the modelled assignment passes, which move every space but Vec3; 11 the cosine
+    // hemisphere's per-axis start):
     // 16 frames, so every pass cuts them into two runs (`swap::TILE_FRAMES`), and two assignment
     // passes. Vec2, UnitVec3, Vec3, CosineHemisphere.
-    let pinned: [(u32, [u64; 4]); 4] = [
+    let pinned: [(u32, [u64; 4]); 5] = [
         (
             7,
             [
@@ -435,6 +436,15 @@ fn vector_output_is_pinned_to_the_generator_version() {
                 0x93a0_108f_6613_ed0d,
                 0x043a_983c_0c41_1360,
                 0x3fc2_fe86_eab0_31e5,
+            ],
+        ),
+        (
+            11,
+            [
+                0xe434_fcc5_e377_f97c,
+                0x93a0_108f_6613_ed0d,
+                0x043a_983c_0c41_1360,
+                0x8187_5103_b6e9_c8c5,
             ],
         ),
     ];
