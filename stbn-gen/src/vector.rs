@@ -55,8 +55,8 @@ impl InitialArrangement {
     /// The start [`VectorSpec::new`] picks for `space`: [`InitialArrangement::ScalarStbnPerAxis`]
     /// for [`SampleSpace::Vec`] masks of two and three components (each component is one
     /// parameter, so each starts close to a scalar STBN mask) and for the cosine hemisphere
-    /// (lower report figures, temporal low band −12%; in the scenes crate 1–2% lower per-pixel
-    /// ambient-occlusion error, blurred within ±2%), [`InitialArrangement::ScalarStbn`] for the
+    /// (lower report figures, temporal low band −12%; in the scenes crate up to 2% lower per-pixel
+    /// ambient-occlusion error, blurred −2.4 to +1.4%), [`InitialArrangement::ScalarStbn`] for the
     /// rest. The per-axis start measured a higher filtered error on `Vec4`, and on the sphere and
     /// the uniform hemisphere lower low bands but up to 2% higher integration errors
     /// (BENCHMARKS.md, "Design decisions").
