@@ -40,6 +40,10 @@ pub(crate) fn exp_neg(x: f64) -> f64 {
     p * f64::from_bits((1023 - k_int) << 52)
 }
 
+/// Arguments of [`exp_neg_f32_lanes`] from this on (and NaN) give its clamped result `e^−87`,
+/// which does not change with the argument.
+pub(crate) const EXP_NEG_F32_CLAMP: f32 = 87.0;
+
 /// `e^−x` in single precision for `x ≥ 0` (`+∞` allowed), relative error below 1.1·10⁻⁵ (tested
 /// up to `x = 86`); results below `e^−87` come out as `e^−87` (≈ 1.6·10⁻³⁸). As `2^−y`, `y = x
 /// log₂e` rounded to single precision: `2^−k` from the bits of the nearest integer `k`, times a
@@ -55,7 +59,7 @@ pub(crate) fn exp_neg(x: f64) -> f64 {
 pub(crate) fn exp_neg_f32_lanes<const N: usize>(x: [f32; N]) -> [f32; N] {
     // 1.5 · 2^23: adding it rounds to an integer held in the low mantissa bits.
     const ROUND: f32 = 12_582_912.0;
-    let y = x.map(|x| x.min(87.0) * std::f32::consts::LOG2_E);
+    let y = x.map(|x| x.min(EXP_NEG_F32_CLAMP) * std::f32::consts::LOG2_E);
     let shifted = y.map(|y| y + ROUND);
     let f: [f32; N] = from_fn(|i| (shifted[i] - ROUND) - y[i]);
     // Interpolating (2^f − 1) / f at the Chebyshev nodes of [−½, ½], in single precision.

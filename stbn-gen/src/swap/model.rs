@@ -14,6 +14,7 @@
 //! The model only ranks permutations; what a pass keeps is decided on exact energies.
 
 use super::energy::{FACTOR_LANES, squared_distance, value_factors_and_arguments, weighted_sum};
+use crate::fastmath::EXP_NEG_F32_CLAMP;
 
 /// Squared distances below this count as this in the model's derivatives, which grow without
 /// bound as a neighbour's value approaches the pixel's (the value term has a cusp there).
@@ -113,7 +114,7 @@ impl<const D: usize> CostModel<D> {
         for t in 0..padded {
             let u = 1.0 / s[t].max(MIN_SQUARED_DISTANCE);
             let wpxf = w[t] * p * x[t] * f[t];
-            (first[t], second[t]) = if x[t] < 87.0 {
+            (first[t], second[t]) = if x[t] < EXP_NEG_F32_CLAMP {
                 (-wpxf * u, wpxf * (p * x[t] - p + 1.0) * u * u)
             } else {
                 (0.0, 0.0)
