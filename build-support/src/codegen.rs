@@ -80,6 +80,18 @@ fn declare(out: &mut String, mask: &EmbeddedMask<'_>, path: &str) {
                 mask.blob_len
             ),
         ),
+        // The encoder stores the payload uncompressed when the codec does not shrink it
+        // (`encode::stored_uncompressed`); a compressed payload is always smaller.
+        compression if payload as u64 >= decoded => (
+            "PackedStbn",
+            "include_packed_stbn",
+            format!(
+                "{compression:?} requested, stored uncompressed: {} bytes embedded (64-byte \
+                 header + {payload}-byte payload), because {compression:?} did not make the \
+                 payload smaller; `decode_into` a buffer of {decoded} bytes copies it.",
+                mask.blob_len
+            ),
+        ),
         compression => (
             "PackedStbn",
             "include_packed_stbn",
@@ -204,6 +216,22 @@ mod tests {
         assert!(code.contains("σ 1.5 pixels in space, 2 frames in time"));
         assert!(code.contains("1088 bytes embedded (64-byte header + 1024-byte payload)"));
         assert!(code.contains("decode it into a buffer of 1024 bytes"));
+        let stored = assets_rs(
+            Path::new("assets.ron"),
+            &[EmbeddedMask {
+                entry: &packed,
+                blob_path: Path::new("/out/stbn/foo_1.stbn"),
+                blob_len: 64 + 1024,
+            }],
+        )
+        .unwrap();
+        assert!(stored.contains("PackedStbn<'static>"), "{stored}");
+        assert!(
+            stored.contains(
+                "Compression Deflate requested, stored uncompressed: 1088 bytes embedded"
+            ),
+            "{stored}"
+        );
     }
 
     #[cfg(unix)]

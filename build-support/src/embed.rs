@@ -8,6 +8,7 @@ use rayon::prelude::*;
 
 use crate::cache::{CACHE_DIR_ENV, Cache, CacheStatus, default_cache_dir, write_atomically};
 use crate::codegen::{EmbeddedMask, assets_rs};
+use crate::encode::stored_uncompressed;
 use crate::{Error, Manifest, MaskKind};
 
 /// File name of the generated module in the output directory.
@@ -133,6 +134,16 @@ pub fn embed_with(config: &EmbedConfig) -> Result<EmbedReport, Error> {
                 .into_iter()
                 .map(|w| format!("mask {:?}: {w}", entry.name)),
         );
+        if stored_uncompressed(&fetched.blob, entry.compression) {
+            warnings.push(format!(
+                "mask {:?}: `compression: {:?}` does not make this mask smaller, so it is \
+                 embedded uncompressed ({} bytes; the static stays a `PackedStbn`); set \
+                 `compression: None` to sample it in place",
+                entry.name,
+                entry.compression,
+                fetched.blob.len()
+            ));
+        }
         masks.push(MaskReport {
             name: entry.name.clone(),
             static_name: entry.static_name(),
@@ -226,11 +237,12 @@ fn env_path(var: &'static str) -> Result<PathBuf, Error> {
 /// reruns a failed build script on the next build anyway. See [`embed_with`] for what is written.
 ///
 /// When masks were generated rather than taken from the cache, it also prints one
-/// `cargo::warning=` line per generated mask (`generated COSINE_64 (CosineHemisphere, 64×64×32)
-/// in 7.3 s; cached for the next build`) and, if this build script runs at opt-level 0 (about 50×
-/// slower) or with debug assertions (about 3× slower), the Cargo.toml profile that fixes it.
-/// Cargo shows these lines when the build script has finished; a build that takes every mask from
-/// the cache prints none of them.
+/// `cargo::warning=` line per generated mask (`COSINE_64 (CosineHemisphere, 64×64×32) was
+/// generated in 7.3 s when this build script last ran; cached`) and, if this build script runs at
+/// opt-level 0 (about 50× slower) or with debug assertions (about 3× slower), the Cargo.toml
+/// profile that fixes it. Cargo shows these lines when the build script has finished, and repeats
+/// them on every later build until the script runs again (when the manifest, an image it names or
+/// `STBN_CACHE_DIR` changes); a run that takes every mask from the cache prints none of them.
 ///
 /// # Errors
 /// [`Error::MissingEnv`] outside a build script; otherwise as [`embed_with`].
@@ -287,13 +299,12 @@ fn generation_lines(masks: &[MaskReport]) -> Vec<String> {
             } else {
                 format!("{time:.1} s")
             };
-            let cached = if mask.stored {
-                "cached for the next build"
-            } else {
-                "not cached"
-            };
+            let cached = if mask.stored { "cached" } else { "not cached" };
+            // Cargo repeats a build script's warnings on every build until the script runs
+            // again, so the line says when the mask was generated.
             format!(
-                "generated {} ({:?}, {width}×{height}×{frames}) in {time}; {cached}",
+                "{} ({:?}, {width}×{height}×{frames}) was generated in {time} when this build \
+                 script last ran; {cached}",
                 mask.static_name, mask.kind
             )
         })
@@ -384,9 +395,12 @@ mod tests {
         assert_eq!(
             generation_lines(&masks),
             [
-                "generated SLOW (CosineHemisphere, 64×64×32) in 7.3 s; cached for the next build",
-                "generated FAST (CosineHemisphere, 64×64×32) in 12 ms; not cached",
-                "generated BAD (CosineHemisphere, 64×64×32) in 999 ms; cached for the next build",
+                "SLOW (CosineHemisphere, 64×64×32) was generated in 7.3 s when this build script last \
+                 ran; cached",
+                "FAST (CosineHemisphere, 64×64×32) was generated in 12 ms when this build script last \
+                 ran; not cached",
+                "BAD (CosineHemisphere, 64×64×32) was generated in 999 ms when this build script last \
+                 ran; cached",
             ]
         );
         assert!(generation_lines(&masks[..1]).is_empty());

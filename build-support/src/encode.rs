@@ -7,10 +7,18 @@ use stbn_runtime::{Compression, Encoding, MaskHeader, Space, ValueMap, octahedra
 /// The miniz_oxide level used for [`Compression::Deflate`] (0–10; 9 is zlib's "best").
 pub const DEFLATE_LEVEL: u8 = 9;
 
-/// Version of the quantisation rules below, part of every cache key: 2 since Unorm values store
-/// the level nearest to `(rank + ½) / pixels` (version 1 stored `rank · 2^bits / pixels`, half a
-/// rank low when a slice has fewer pixels than levels).
-pub const ENCODER_VERSION: u32 = 2;
+/// Version of the encoder's output, part of every cache key: 3 since a compressed payload that is
+/// not smaller than the stored one is stored instead; 2 since Unorm values store the level
+/// nearest to `(rank + ½) / pixels` (version 1 stored `rank · 2^bits / pixels`, half a rank low
+/// when a slice has fewer pixels than levels).
+pub const ENCODER_VERSION: u32 = 3;
+
+/// Whether `blob` (from [`encode_volume`] or [`encode_vector`]) was asked for `requested`
+/// compression but stores its payload uncompressed, because the codec did not make it smaller.
+/// `false` for a blob whose header cannot be read.
+pub fn stored_uncompressed(blob: &[u8], requested: Compression) -> bool {
+    !requested.is_none() && MaskHeader::parse(blob).is_ok_and(|header| header.compression.is_none())
+}
 
 /// The Unorm level of rank `rank` in a slice of `pixels` pixels with `bits` bits: the level
 /// `q ∈ 0..2^bits` whose midpoint `(q + ½) / 2^bits` is nearest to the exact value
@@ -86,11 +94,22 @@ pub fn encode_volume(volume: &Volume, encoding: Encoding, compression: Compressi
 }
 
 /// Compresses `decoded` and puts `header` (completed with the payload fields) in front.
+///
+/// A compressed payload is kept only when it is smaller than `decoded`; otherwise the blob stores
+/// `decoded` with [`Compression::None`] (its header says so), so a blob is never larger than the
+/// stored one. [`stored_uncompressed`] tells a caller that asked for compression.
 fn finish(header: MaskHeader, decoded: Vec<u8>, compression: Compression) -> Vec<u8> {
-    let payload = match compression {
-        Compression::None => decoded,
-        Compression::Lz4 => lz4_flex::block::compress(&decoded),
-        Compression::Deflate => miniz_oxide::deflate::compress_to_vec(&decoded, DEFLATE_LEVEL),
+    let compressed = match compression {
+        Compression::None => None,
+        Compression::Lz4 => Some(lz4_flex::block::compress(&decoded)),
+        Compression::Deflate => Some(miniz_oxide::deflate::compress_to_vec(
+            &decoded,
+            DEFLATE_LEVEL,
+        )),
+    };
+    let (compression, payload) = match compressed {
+        Some(compressed) if compressed.len() < decoded.len() => (compression, compressed),
+        _ => (Compression::None, decoded),
     };
     let header = header.with_payload(compression, &payload);
     let mut blob = Vec::with_capacity(MaskHeader::SIZE + payload.len());
@@ -340,8 +359,14 @@ mod tests {
             for compression in [Compression::Lz4, Compression::Deflate] {
                 let blob = encode_volume(&volume, encoding, compression);
                 let packed = PackedStbn::from_bytes(&blob).unwrap();
-                assert_eq!(packed.header().compression, compression);
                 assert_eq!(packed.decode().unwrap().data(), view.data());
+                // Never larger than the stored blob: a codec that does not shrink the payload
+                // is dropped, and the header says so.
+                assert!(blob.len() <= plain.len(), "{encoding:?} {compression:?}");
+                let kept = packed.header().compression;
+                assert_eq!(kept == Compression::None, blob == plain);
+                assert!(kept == compression || kept == Compression::None);
+                assert_eq!(stored_uncompressed(&blob, compression), kept.is_none());
             }
         }
         let view = Stbn::from_bytes(&encode_volume(&volume, Encoding::F32, Compression::None))
@@ -349,5 +374,32 @@ mod tests {
             .sample(3, 1, 1);
         // Slice 1 is reversed: pixel (3, 1) has rank 0.
         assert_eq!(view, 0.5 / 8.0);
+    }
+
+    #[test]
+    fn compression_is_kept_only_where_it_shrinks_the_payload() {
+        // Every frame of an 8-bit scalar mask holds each level equally often: at its entropy, so
+        // neither codec shrinks it. Its F32 values carry log2(pixels) bits in 32: Deflate halves
+        // them.
+        let spec = stbn_gen::BaselineSpec::new(stbn_gen::BaselineKind::White, 64, 64, 8, 5);
+        let volume = stbn_gen::generate_baseline(&spec, stbn_gen::Observer::default()).unwrap();
+        for compression in [Compression::Lz4, Compression::Deflate] {
+            let blob = encode_volume(&volume, Encoding::Unorm8, compression);
+            assert!(stored_uncompressed(&blob, compression), "{compression:?}");
+            assert_eq!(
+                blob,
+                encode_volume(&volume, Encoding::Unorm8, Compression::None)
+            );
+        }
+        let blob = encode_volume(&volume, Encoding::F32, Compression::Deflate);
+        assert!(!stored_uncompressed(&blob, Compression::Deflate));
+        let plain = encode_volume(&volume, Encoding::F32, Compression::None);
+        assert!(
+            blob.len() * 10 < plain.len() * 7,
+            "{} vs {}",
+            blob.len(),
+            plain.len()
+        );
+        assert!(!stored_uncompressed(&plain, Compression::None));
     }
 }
