@@ -185,6 +185,55 @@ fn push_unit(out: &mut Vec<u8>, u: f32, encoding: Encoding) {
     }
 }
 
+/// `u` as [`push_unit`] stores it, read back as the runtime reads it (bin midpoints for Unorm).
+fn stored_unit(u: f32, encoding: Encoding) -> f32 {
+    let u = if u.is_finite() {
+        u.clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    match encoding {
+        Encoding::Unorm8 => ((f64::from(u) * 256.0).floor().min(255.0) as f32 + 0.5) / 256.0,
+        Encoding::Unorm16 => ((f64::from(u) * 65536.0).floor().min(65535.0) as f32 + 0.5) / 65536.0,
+        Encoding::F32 => u,
+    }
+}
+
+/// Octahedral coordinates `(ux, uy)` (stored unit values) of a direction in the upper
+/// hemisphere, moved toward the centre by whole storage steps (a Unorm bin, 2^-24 for `f32`)
+/// until what is stored decodes to `z >= 0`.
+///
+/// A direction within about one step of the horizon lies on the octahedron's edge
+/// `|ex| + |ey| = 1`; rounding each coordinate to what the encoding stores can push the sum
+/// past 1, which [`octahedral_decode`](stbn_runtime::octahedral_decode) folds into the lower
+/// hemisphere and the runtime refuses for a hemisphere mask. The moved direction differs from
+/// the generated one by about one step.
+fn above_the_horizon(mut ux: f32, mut uy: f32, encoding: Encoding) -> (f32, f32) {
+    // A step that changes the decoded coordinate `2u - 1`: a Unorm bin, or for F32 one ulp of
+    // `u` in [0.5, 1) (finer steps of a small `u` vanish in `2u - 1`).
+    let step = match encoding {
+        Encoding::Unorm8 => 1.0 / 256.0,
+        Encoding::Unorm16 => 1.0 / 65536.0,
+        Encoding::F32 => f32::EPSILON / 2.0,
+    };
+    let toward_centre = |u: f32| if u > 0.5 { u - step } else { u + step };
+    let decoded = |u: f32| ValueMap::Octahedral.apply(stored_unit(u, encoding));
+    // Each step moves one coordinate's stored value toward the centre, where z = 1; a few
+    // suffice (the sum exceeds 1 by at most a step per coordinate).
+    for _ in 0..64 {
+        let (ex, ey) = (decoded(ux), decoded(uy));
+        if stbn_runtime::octahedral_decode(glam::Vec2::new(ex, ey)).z >= 0.0 {
+            break;
+        }
+        if ex.abs() >= ey.abs() {
+            ux = toward_centre(ux);
+        } else {
+            uy = toward_centre(uy);
+        }
+    }
+    (ux, uy)
+}
+
 /// `t` in `[0, 1]` as the full-range pdf element: Unorm `round(t · (2^bits - 1))`, F32 `t`.
 fn push_full_range(out: &mut Vec<u8>, t: f32, encoding: Encoding) {
     let t = if t.is_finite() {
@@ -232,8 +281,15 @@ pub fn encode_vector_payload(
                 .for_each(|&v| push_unit(&mut out, v * 0.5 + 0.5, encoding)),
             ValueMap::Octahedral => {
                 let e = octahedral_encode(glam::Vec3::new(value[0], value[1], value[2]));
-                push_unit(&mut out, e.x * 0.5 + 0.5, encoding);
-                push_unit(&mut out, e.y * 0.5 + 0.5, encoding);
+                let (mut ux, mut uy) = (e.x * 0.5 + 0.5, e.y * 0.5 + 0.5);
+                if matches!(
+                    layout.space,
+                    Space::UniformHemisphere | Space::CosineHemisphere
+                ) {
+                    (ux, uy) = above_the_horizon(ux, uy, encoding);
+                }
+                push_unit(&mut out, ux, encoding);
+                push_unit(&mut out, uy, encoding);
             }
         }
         if let Some(pdf) = pdf {
@@ -401,5 +457,34 @@ mod tests {
             plain.len()
         );
         assert!(!stored_uncompressed(&plain, Compression::None));
+    }
+
+    #[test]
+    fn hemisphere_directions_at_the_horizon_decode_above_it_in_every_encoding() {
+        // Directions a hair above the horizon, all around it: each stored pair must decode to
+        // z >= 0 and stay within a few storage steps of the direction.
+        for encoding in [Encoding::Unorm8, Encoding::Unorm16, Encoding::F32] {
+            let step = match encoding {
+                Encoding::Unorm8 => 2.0 / 256.0,
+                Encoding::Unorm16 => 2.0 / 65536.0,
+                Encoding::F32 => 1e-6,
+            };
+            for i in 0..3600 {
+                let phi = i as f32 * (core::f32::consts::TAU / 3600.0);
+                for z in [0.0f32, 1e-9, 3e-8, 1e-7] {
+                    let n = glam::Vec3::new(phi.cos(), phi.sin(), z).normalize();
+                    let e = octahedral_encode(n);
+                    let (ux, uy) = above_the_horizon(e.x * 0.5 + 0.5, e.y * 0.5 + 0.5, encoding);
+                    let decoded = |u| ValueMap::Octahedral.apply(stored_unit(u, encoding));
+                    let (ex, ey) = (decoded(ux), decoded(uy));
+                    let d = stbn_runtime::octahedral_decode(glam::Vec2::new(ex, ey));
+                    assert!(d.z >= 0.0, "{encoding:?} phi {phi} z {z}: {d}");
+                    assert!(
+                        (ex - e.x).abs() <= 2.0 * step && (ey - e.y).abs() <= 2.0 * step,
+                        "{encoding:?} phi {phi} z {z}: ({ex}, {ey}) from {e}"
+                    );
+                }
+            }
+        }
     }
 }
