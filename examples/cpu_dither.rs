@@ -6,8 +6,9 @@
 //! where the ramp is brighter than the mask. A single frame is blue-noise dithering; the mean of
 //! the frames, what a temporal accumulation (TAA) shows, tends to the ramp itself. The masks are
 //! the statics this package's `build.rs` embeds from `assets.ron`: `SCALAR_64` (STBN, 64×64×32,
-//! sampled in place) and `BLUE2D_64` (independent 2D blue noise per frame, Deflate-compressed,
-//! decoded once). Both tile the image: sampling wraps around on every axis.
+//! sampled in place) and `BLUE2D_64` (independent 2D blue noise per frame, a `PackedStbn`
+//! decoded once: declared Deflate-compressed, stored uncompressed because Deflate does not
+//! shrink 8-bit frames). Both tile the image: sampling wraps around on every axis.
 //!
 //! Run: `cargo run --example cpu_dither [-- <out dir>]` (default `out/cpu_dither`).
 //!

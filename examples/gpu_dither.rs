@@ -8,7 +8,7 @@
 //! filled from `MaskUniform::new(&SCALAR_64, &texture)`. The snippet returns exactly the values
 //! `SCALAR_64.sample(x, y, frame)` returns on the CPU, so the two frames agree pixel for pixel.
 //!
-//! Run: `cargo run --example gpu_dither [-- <out dir>]` (default `out/gpu_dither`).
+//! Run: `cargo run --example gpu_dither --features gpu [-- <out dir>]` (default `out/gpu_dither`).
 //! Needs a Vulkan, Metal, DX12 or GL adapter; on a machine without a GPU, Mesa's lavapipe
 //! (`apt-get install mesa-vulkan-drivers libvulkan1`) works. `WGPU_BACKEND=vulkan` (or `gl`,
 //! `metal`, `dx12`) picks the backend.
