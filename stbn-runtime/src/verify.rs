@@ -15,8 +15,27 @@ use crate::{Encoding, Error, Space, Stbn, ValueMap};
 /// the last place of 1 (about `2.4e-7`) on every direction that passes the check.
 pub const UNIT_LENGTH_TOLERANCE: f32 = 1e-6;
 
-/// Voxels decoded per block by the direction check, on the stack (4 KiB).
+/// Voxels (or F32 elements) checked per block, the directions decoded on the stack (4 KiB).
 const CHECK_BLOCK: usize = 256;
+
+/// Whether `v`'s length is certainly within [`UNIT_LENGTH_TOLERANCE`] of 1: its squared length,
+/// summed in `f32` (so that the check vectorises), inside the squared bounds narrowed by
+/// [`SQUARED_LENGTH_ERROR`]. A NaN fails the comparisons.
+#[inline(always)]
+fn is_unit(v: Vec4) -> bool {
+    const TOLERANCE: f32 = UNIT_LENGTH_TOLERANCE;
+    // (1 ± t)² = 1 ± 2t + t²; t² (1e-12) is below f32's resolution at 1 and only widens the
+    // true range, so leaving it out keeps the bounds inside it.
+    const LOW: f32 = 1.0 - 2.0 * TOLERANCE + SQUARED_LENGTH_ERROR;
+    const HIGH: f32 = 1.0 + 2.0 * TOLERANCE - SQUARED_LENGTH_ERROR;
+    let squared = v.x * v.x + v.y * v.y + v.z * v.z + v.w * v.w;
+    (LOW..=HIGH).contains(&squared)
+}
+
+/// A bound on the rounding of [`is_unit`]'s squared length near 1: four products and three sums,
+/// each off by at most half an ulp (2^-24) of a value below 1.000002, about 4.2e-7 in all; with
+/// the rounding of the bounds themselves, 5e-7.
+const SQUARED_LENGTH_ERROR: f32 = 5e-7;
 
 impl Stbn<'_> {
     /// Checks what [`Stbn::from_bytes`] checks of the payload: that [`data`](Self::data) matches
@@ -63,10 +82,20 @@ impl Stbn<'_> {
     fn check_f32_elements(&self) -> Result<(), Error> {
         let header = self.header();
         // NaN fails both comparisons, so it is caught with the infinities and the range.
-        let bad = self.data().chunks_exact(4).position(|bytes| {
+        let in_range = |bytes: &[u8]| {
             let v = f32::from_le_bytes([bytes[0], bytes[1], bytes[2], bytes[3]]);
-            !(0.0..=1.0).contains(&v)
-        });
+            (0.0..=1.0).contains(&v)
+        };
+        // A branch-free pass per block (it vectorises), then a search in the block that fails.
+        let bad = self
+            .data()
+            .chunks(4 * CHECK_BLOCK)
+            .enumerate()
+            .find(|(_, block)| !block.chunks_exact(4).fold(true, |ok, e| ok & in_range(e)))
+            .and_then(|(k, block)| {
+                let within = block.chunks_exact(4).position(|e| !in_range(e))?;
+                Some(k * CHECK_BLOCK + within)
+            });
         let Some(element) = bad else {
             return Ok(());
         };
@@ -97,23 +126,18 @@ impl Stbn<'_> {
         while first < voxels {
             let out = &mut block[..(voxels - first).min(CHECK_BLOCK)];
             self.fill_vector_run(first * channels, out);
+            // A branch-free pass over the block (it vectorises), then a search in one that
+            // fails.
+            let bad: u32 = out
+                .iter()
+                .map(|v| u32::from(!is_unit(*v)) | u32::from(hemisphere & (v.z < 0.0)))
+                .sum();
+            if bad == 0 {
+                first += out.len();
+                continue;
+            }
             for (k, v) in out.iter().enumerate() {
-                // The squared length in f64, against the squared bounds, so that the check adds
-                // no rounding worth speaking of (and needs no square root in `core`). A NaN
-                // fails the comparisons too.
-                let squared = v
-                    .to_array()
-                    .map(f64::from)
-                    .iter()
-                    .map(|c| c * c)
-                    .sum::<f64>();
-                let tolerance = f64::from(UNIT_LENGTH_TOLERANCE);
-                let (low, high) = (
-                    (1.0 - tolerance) * (1.0 - tolerance),
-                    (1.0 + tolerance) * (1.0 + tolerance),
-                );
-                let unit = (low..=high).contains(&squared);
-                if !unit {
+                if !is_unit(*v) {
                     return Err(self.invalid_at(
                         first + k,
                         None,
@@ -145,6 +169,66 @@ impl Stbn<'_> {
             frame: (voxel / (width * height)) as u32,
             channel,
             reason,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `is_unit` accepts only lengths within the tolerance (checked in f64 on vectors swept
+    /// across both bounds), and accepts every vector the normalisation produces.
+    #[test]
+    fn the_unit_check_is_sound_and_passes_normalised_vectors() {
+        let mut state = 0x9E37_79B9_7F4A_7C15u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
+        };
+        let tolerance = f64::from(UNIT_LENGTH_TOLERANCE);
+        let (mut accepted, mut refused) = (0, 0);
+        for i in 0..200_000 {
+            let v = Vec4::new(
+                next(),
+                next(),
+                next(),
+                if i % 2 == 0 { next() } else { 0.0 },
+            );
+            if v.length_squared() < 1e-6 {
+                continue;
+            }
+            let unit = v / v.length();
+            assert!(is_unit(unit), "{unit}: length {}", unit.length());
+            // Scaled across the bounds: 1 ± 3e-6 in steps of about 2e-8.
+            let scaled = unit * (1.0 + (i % 300) as f32 * 2e-8 - 3e-6);
+            let length = scaled
+                .to_array()
+                .map(f64::from)
+                .iter()
+                .map(|c| c * c)
+                .sum::<f64>()
+                .sqrt();
+            if is_unit(scaled) {
+                assert!((length - 1.0).abs() <= tolerance, "{scaled}: {length}");
+                accepted += 1;
+            } else {
+                refused += 1;
+            }
+        }
+        assert!(
+            accepted > 10_000 && refused > 10_000,
+            "{accepted} {refused}"
+        );
+        for v in [
+            Vec4::ZERO,
+            Vec4::NAN,
+            Vec4::new(1e-20, 0.0, 0.0, 0.0),
+            Vec4::X * 2.0,
+        ] {
+            assert!(!is_unit(v), "{v}");
         }
     }
 }
