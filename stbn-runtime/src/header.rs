@@ -92,7 +92,8 @@ impl Compression {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[repr(u8)]
 pub enum ValueMap {
-    /// The stored value `u` in `[0, 1)` is the quantity itself.
+    /// The stored value `u` (in `(0, 1)` for Unorm encodings, `[0, 1]` for F32) is the quantity
+    /// itself.
     Unit = 0,
     /// Each component `c` in `[-1, 1]` is stored as `u = c * 0.5 + 0.5`; decode with
     /// [`ValueMap::apply`] (`c = u * 2 - 1`).

@@ -10,9 +10,10 @@ use glam::Vec4;
 
 use crate::{Encoding, Error, Space, Stbn, ValueMap};
 
-/// How far from 1 the length of a direction a verified mask returns may be: `1e-6`. The
-/// normalisation's steps are each correctly rounded, so the samplers stay within a few units in
-/// the last place of 1 (about `2.4e-7`) on every direction that passes the check.
+/// How far from 1 the length of a direction a verified mask returns may be: `1e-6`. Every
+/// voxel of a unit-vector space is decoded as the samplers decode it and checked against this
+/// once; the normalisation's steps are each correctly rounded, so every direction the stored
+/// components can hold, but the zero vector, passes.
 pub const UNIT_LENGTH_TOLERANCE: f32 = 1e-6;
 
 /// Voxels (or F32 elements) checked per block, the directions decoded on the stack (4 KiB).
