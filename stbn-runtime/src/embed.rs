@@ -26,9 +26,13 @@ pub const BLOB_ALIGN: usize = 64;
 /// error[E0080]: evaluation panicked: include_stbn!("masks/scalar.stbn"): stbn blob truncated: needs 2112 bytes, only 100 available
 /// ```
 ///
-/// The payload CRC is not checked while compiling (that would cost seconds per megabyte); check
-/// it once with [`Stbn::from_bytes`](crate::Stbn::from_bytes) in a test if the file may have been
-/// damaged since it was generated. A compressed file needs
+/// The payload, its CRC and its values, is not checked while compiling (that would cost seconds
+/// per megabyte): the mask keeps the sampling promises of
+/// [`Stbn::from_bytes`](crate::Stbn::from_bytes) (finite values, unit directions, `z >= 0` on
+/// hemispheres, finite pdfs `>= 0`) if the file is as the generator wrote it. If it may have been
+/// damaged or written by something else, check it once with
+/// [`verify`](crate::Stbn::verify) in a test (`NOISE.verify().unwrap()`); sampling a payload that
+/// fails it never panics, but returns its values as stored. A compressed file needs
 /// [`include_packed_stbn!`](crate::include_packed_stbn).
 ///
 /// # Example
@@ -42,6 +46,8 @@ pub const BLOB_ALIGN: usize = 64;
 /// let threshold = NOISE.sample(3, -7, 1000);
 /// assert!(threshold > 0.0 && threshold < 1.0);
 /// assert_eq!(NOISE.data().as_ptr() as usize % stbn_runtime::BLOB_ALIGN, 0);
+/// // The payload's CRC and values, checked once (here; a game would do it in a test).
+/// assert!(NOISE.verify().is_ok());
 /// ```
 ///
 /// A damaged file does not compile (here the same blob cut after 100 bytes):
@@ -253,6 +259,21 @@ mod tests {
                 expected: 10,
                 actual: None,
             },
+            Error::InvalidValue {
+                x: u32::MAX,
+                y: 0,
+                frame: 7,
+                channel: Some(3),
+                reason: "an F32 unit value must be a finite number in [0, 1]",
+            },
+            Error::InvalidValue {
+                x: 1,
+                y: 2,
+                frame: 3,
+                channel: None,
+                reason: "a hemisphere direction must decode to z >= 0",
+            },
+            Error::OutOfMemory { bytes: 1 << 31 },
         ] {
             assert_eq!(text_of(error).as_str(), error.to_string());
         }

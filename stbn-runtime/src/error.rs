@@ -57,6 +57,29 @@ pub enum Error {
         /// Bytes the stream produced, or `None` if it would produce more than `expected`.
         actual: Option<usize>,
     },
+    /// A decoded value breaks what its space promises: an F32 element that is not a finite
+    /// number in `[0, 1]` (the stored unit value, or the pdf channel's `t`), or a direction that
+    /// does not decode to a unit vector (or, for a hemisphere, has `z < 0`). Checked by every
+    /// verified constructor and by decoding; see [`Stbn::verify`](crate::Stbn::verify).
+    InvalidValue {
+        /// Voxel column of the first offending value.
+        x: u32,
+        /// Voxel row.
+        y: u32,
+        /// Frame.
+        frame: u32,
+        /// The offending channel, or `None` when the voxel's decoded direction as a whole is
+        /// wrong.
+        channel: Option<u8>,
+        /// What the value must satisfy.
+        reason: &'static str,
+    },
+    /// The allocator refused the buffer for the decoded payload
+    /// ([`PackedStbn::decode`](crate::PackedStbn::decode)).
+    OutOfMemory {
+        /// Bytes requested: the header's decoded length.
+        bytes: usize,
+    },
 }
 
 /// One piece of an [`Error`]'s message: text, or a number written in decimal.
@@ -71,7 +94,7 @@ pub(crate) type Message = [Piece; Error::MESSAGE_PIECES];
 
 impl Error {
     /// Pieces in the longest message.
-    pub(crate) const MESSAGE_PIECES: usize = 5;
+    pub(crate) const MESSAGE_PIECES: usize = 10;
 
     /// The message, in pieces: what `Display` writes and, assembled in a `const` context, what
     /// [`include_stbn!`](crate::include_stbn) fails the build with.
@@ -149,6 +172,45 @@ impl Error {
                 Number(expected as u64),
                 Text(" bytes the header declares"),
             ]),
+            Self::InvalidValue {
+                x,
+                y,
+                frame,
+                channel: Some(channel),
+                reason,
+            } => pad([
+                Text("invalid stbn value at x "),
+                Number(x as u64),
+                Text(", y "),
+                Number(y as u64),
+                Text(", frame "),
+                Number(frame as u64),
+                Text(", channel "),
+                Number(channel as u64),
+                Text(": "),
+                Text(reason),
+            ]),
+            Self::InvalidValue {
+                x,
+                y,
+                frame,
+                channel: None,
+                reason,
+            } => pad([
+                Text("invalid stbn value at x "),
+                Number(x as u64),
+                Text(", y "),
+                Number(y as u64),
+                Text(", frame "),
+                Number(frame as u64),
+                Text(": "),
+                Text(reason),
+            ]),
+            Self::OutOfMemory { bytes } => pad([
+                Text("cannot allocate "),
+                Number(bytes as u64),
+                Text(" bytes for the decoded stbn payload"),
+            ]),
         }
     }
 }
@@ -203,6 +265,32 @@ mod tests {
             }
             .to_string(),
             "invalid stbn header field `width`: must be at least 1"
+        );
+        assert_eq!(
+            Error::InvalidValue {
+                x: 3,
+                y: 0,
+                frame: 12,
+                channel: Some(1),
+                reason: "must be in [0, 1]",
+            }
+            .to_string(),
+            "invalid stbn value at x 3, y 0, frame 12, channel 1: must be in [0, 1]"
+        );
+        assert_eq!(
+            Error::InvalidValue {
+                x: 0,
+                y: 4,
+                frame: 0,
+                channel: None,
+                reason: "z < 0",
+            }
+            .to_string(),
+            "invalid stbn value at x 0, y 4, frame 0: z < 0"
+        );
+        assert_eq!(
+            Error::OutOfMemory { bytes: 2147483648 }.to_string(),
+            "cannot allocate 2147483648 bytes for the decoded stbn payload"
         );
     }
 }

@@ -92,7 +92,8 @@ impl Compression {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[repr(u8)]
 pub enum ValueMap {
-    /// The stored value `u` in `[0, 1)` is the quantity itself.
+    /// The stored value `u` (in `(0, 1)` for Unorm encodings, `[0, 1]` for F32) is the quantity
+    /// itself.
     Unit = 0,
     /// Each component `c` in `[-1, 1]` is stored as `u = c * 0.5 + 0.5`; decode with
     /// [`ValueMap::apply`] (`c = u * 2 - 1`).
@@ -273,7 +274,8 @@ pub struct MaskHeader {
     /// What the values are samples of.
     pub space: Space,
     /// Bytes stored after the header; equals [`decoded_len`](Self::decoded_len)
-    /// when `compression` is [`Compression::None`], and is non-zero otherwise.
+    /// when `compression` is [`Compression::None`]; otherwise non-zero and at least
+    /// `decoded_len / 255` (LZ4) or `decoded_len / 1032` (Deflate).
     pub payload_len: u32,
     /// `crc32fast::hash` (CRC-32/IEEE) of the stored (possibly compressed) payload.
     pub payload_crc32: u32,
@@ -409,8 +411,10 @@ impl MaskHeader {
     ///
     /// Checks, in order: length ≥ 64, magic, `format_version`, `header_len`,
     /// `header_crc32`, reserved bytes zero, every field's range (see the field
-    /// docs), the decoded size bound ([`MAX_DECODED_BYTES`]) and, for
-    /// [`Compression::None`], `payload_len == decoded_len`.
+    /// docs), the decoded size bound ([`MAX_DECODED_BYTES`]), for
+    /// [`Compression::None`] `payload_len == decoded_len`, and for a compressed payload that
+    /// `payload_len` can hold `decoded_len` (at most 255 decoded bytes per stored byte for LZ4,
+    /// 1032 for Deflate, the formats' largest expansions).
     ///
     /// # Errors
     /// [`Error::Truncated`], [`Error::BadMagic`], [`Error::UnsupportedVersion`],
@@ -573,6 +577,23 @@ impl MaskHeader {
                         "must be non-zero for a compressed payload",
                     ));
                 }
+                // A stream cannot expand beyond its format's ratio: refused here, a blob whose
+                // header claims gigabytes from a few bytes never reaches an allocation.
+                let (ratio, reason) = match compression {
+                    Compression::Lz4 => (
+                        LZ4_MAX_RATIO,
+                        "too small for the decoded size: an LZ4 block decodes to at most \
+                         255 bytes per stored byte",
+                    ),
+                    _ => (
+                        DEFLATE_MAX_RATIO,
+                        "too small for the decoded size: a Deflate stream decodes to at most \
+                         1032 bytes per stored byte",
+                    ),
+                };
+                if decoded_len as u64 > header.payload_len as u64 * ratio {
+                    return Err(invalid("payload_len", reason));
+                }
             }
         }
         Ok(header)
@@ -620,6 +641,16 @@ impl MaskHeader {
         Some(len as usize)
     }
 }
+
+/// The most bytes one stored byte of an LZ4 block decodes to. A sequence whose match length
+/// has `n` extension bytes costs at least `3 + n` stored bytes (token, offset, extensions) and
+/// copies at most `18 + 255 n`; a literal costs its own byte. So a block of `s` bytes decodes to
+/// fewer than `255 s`.
+const LZ4_MAX_RATIO: u64 = 255;
+
+/// The most bytes one stored byte of a Deflate stream decodes to: 258 bytes per length/distance
+/// pair of two 1-bit codes, 4 pairs per byte (the format's well-known 1032:1 limit).
+const DEFLATE_MAX_RATIO: u64 = 1032;
 
 const fn invalid(field: &'static str, reason: &'static str) -> Error {
     Error::InvalidField { field, reason }

@@ -62,8 +62,24 @@
 //!   feature, into an `OwnedStbn`.
 //!
 //! Sampling is toroidal on every axis and accepts every `i32`/`u32` coordinate.
-//! Values are the stored unit values in `[0, 1)` (Unorm8/Unorm16 decode to bin
-//! midpoints `(q + 0.5) / 2^bits`).
+//! Values are the stored unit values: Unorm8/Unorm16 decode to bin midpoints
+//! `(q + 0.5) / 2^bits` in `(0, 1)`, F32 values are as stored, in `[0, 1]`.
+//!
+//! # What a mask promises
+//!
+//! The verified constructors ([`Stbn::from_bytes`], [`PackedStbn::from_bytes`]) and the
+//! decoders ([`PackedStbn::decode_into`], `PackedStbn::decode`) check every stored value once
+//! ([`Stbn::verify`]) and refuse a blob that breaks a promise with [`Error::InvalidValue`],
+//! naming the voxel and channel. A view they return samples only finite values in `[0, 1]`
+//! (signed components in `[-1, 1]`), directions of unit length within
+//! [`UNIT_LENGTH_TOLERANCE`] (`z >= 0` for hemispheres), and finite pdfs `>= 0`. Checking once
+//! keeps sampling free of per-sample guards and bit for bit equal to the WGSL snippet's.
+//!
+//! The `const` constructors ([`Stbn::from_bytes_unverified`], hence [`include_stbn!`], and the
+//! uncompressed [`PackedStbn::view`] of [`PackedStbn::from_bytes_unverified`]) check the header
+//! and the length at compile time but trust the payload, like its CRC: the blobs the generator
+//! writes keep every promise; for other bytes call [`Stbn::verify`] once. Sampling never panics
+//! or reads out of bounds on any payload.
 //!
 //! # Sampling API
 //! [`Stbn`] samples at the requested position; [`Stbn::offset`] (a [`SampleOffset`]:
@@ -151,7 +167,8 @@
 //!     0.0,
 //!     0.0,
 //! );
-//! let payload: Vec<u8> = (0..32).map(|i| (i * 53 % 256) as u8).collect();
+//! // Octahedral coordinates in [-0.5, 0.5]², all above the horizon (others would be refused).
+//! let payload: Vec<u8> = (0..32).map(|i| (64 + i * 53 % 128) as u8).collect();
 //! let mut bytes = header.with_payload(Compression::None, &payload).to_bytes().to_vec();
 //! bytes.extend_from_slice(&payload);
 //! let directions = Stbn::from_bytes(&bytes)?;
@@ -185,6 +202,7 @@ mod packed;
 mod sampler;
 mod sqrt;
 mod vector;
+mod verify;
 #[cfg(target_arch = "x86_64")]
 mod wide;
 
@@ -201,3 +219,4 @@ pub use packed::OwnedStbn;
 pub use packed::PackedStbn;
 pub use sampler::Stbn;
 pub use vector::{VectorOutput, VectorSample, octahedral_decode, octahedral_encode};
+pub use verify::UNIT_LENGTH_TOLERANCE;

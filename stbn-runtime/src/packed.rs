@@ -56,28 +56,36 @@ pub(crate) const fn payload_of<'a>(
 
 impl<'a> PackedStbn<'a> {
     /// Validates a complete blob: header ([`MaskHeader::parse`]), total length
-    /// exactly `64 + payload_len`, and `payload_crc32`.
+    /// exactly `64 + payload_len`, and `payload_crc32`; for an uncompressed payload also its
+    /// values ([`Stbn::verify`]), so that [`view`](Self::view) keeps every sampling promise.
     ///
-    /// The compressed stream itself is checked when decoding.
+    /// A compressed stream, and the values it holds, are checked when decoding.
     ///
     /// # Errors
     /// Any header error; [`Error::Truncated`] if the blob is shorter than
     /// `64 + payload_len`; [`Error::PayloadLength`] if it is longer;
-    /// [`Error::PayloadChecksum`] if the CRC does not match.
+    /// [`Error::PayloadChecksum`] if the CRC does not match; [`Error::InvalidValue`] if an
+    /// uncompressed payload holds a value outside its space's range.
     pub fn from_bytes(bytes: &'a [u8]) -> Result<Self, Error> {
         let header = MaskHeader::parse(bytes)?;
         let payload = payload_of(bytes, &header)?;
         if crc32fast::hash(payload) != header.payload_crc32 {
             return Err(Error::PayloadChecksum);
         }
+        if header.compression.is_none() {
+            Stbn::from_parts(header, payload).check_values()?;
+        }
         Ok(Self { header, payload })
     }
 
     /// Validates the header and the total length only, in a `const` context: what the statics
     /// the build emits use (`pub static M: PackedStbn<'static> = match PackedStbn::from_bytes_unverified(…)`),
-    /// so a malformed embedded blob fails compilation. The payload CRC is not checked here (the
-    /// build verified it when it wrote the blob); [`PackedStbn::from_bytes`] checks it, and a
-    /// damaged compressed stream is still an error when decoding, never a panic.
+    /// so a malformed embedded blob fails compilation. The payload CRC and values are not checked
+    /// here (the build verified them when it wrote the blob); [`PackedStbn::from_bytes`] checks
+    /// them, and [`decode_into`](Self::decode_into) checks the decoded values whatever the
+    /// constructor, so a damaged payload is an error when decoding, never a panic. Only
+    /// [`view`](Self::view) of an uncompressed blob built here skips the value checks (see
+    /// [`Stbn::from_bytes_unverified`]).
     ///
     /// # Errors
     /// Any header error; [`Error::Truncated`] or [`Error::PayloadLength`] if the blob is not
@@ -119,12 +127,15 @@ impl<'a> PackedStbn<'a> {
     /// stream to produce exactly `decoded_len` bytes. Deflate decoding keeps its
     /// decompressor state (about 11 KiB) on the stack. The returned view's
     /// header describes the decoded data (see [`Stbn::header`]); for compressed
-    /// blobs that costs one CRC pass over the output.
+    /// blobs that costs one CRC pass over the output. The decoded values are then checked as
+    /// [`Stbn::verify`] checks them (a pass over F32 elements and over directions), so the view
+    /// keeps every sampling promise whichever constructor built `self`.
     ///
     /// # Errors
     /// [`Error::BufferTooSmall`] if `buf` is shorter than `decoded_len`;
     /// [`Error::Decompress`] if the stream is malformed or has trailing bytes;
-    /// [`Error::DecodedLength`] if it decodes to the wrong size.
+    /// [`Error::DecodedLength`] if it decodes to the wrong size; [`Error::InvalidValue`] if a
+    /// decoded value is outside its space's range.
     pub fn decode_into<'b>(&self, buf: &'b mut [u8]) -> Result<Stbn<'b>, Error> {
         let len = self.decoded_len();
         let available = buf.len();
@@ -147,10 +158,14 @@ impl<'a> PackedStbn<'a> {
             header.payload_len = len as u32;
             header.payload_crc32 = crc32fast::hash(data);
         }
-        Ok(Stbn::from_parts(header, data))
+        let view = Stbn::from_parts(header, data);
+        view.check_values()?;
+        Ok(view)
     }
 
-    /// Views the payload in place, without copying.
+    /// Views the payload in place, without copying. The view keeps every sampling promise if
+    /// `self` came from [`from_bytes`](Self::from_bytes), which checked the values; from
+    /// [`from_bytes_unverified`](Self::from_bytes_unverified), see [`Stbn::verify`].
     ///
     /// # Errors
     /// [`Error::Compressed`] if the payload is compressed (use
@@ -163,13 +178,24 @@ impl<'a> PackedStbn<'a> {
         }
     }
 
-    /// Decodes the payload into a freshly allocated buffer.
+    /// Decodes the payload into a freshly allocated buffer of
+    /// [`decoded_len`](Self::decoded_len) bytes.
+    ///
+    /// The allocation is fallible: a refused one is an error, not an abort. It is bounded by
+    /// the stream before it is made: the header was refused unless the stored payload can
+    /// decode to `decoded_len` (at most 255 bytes per stored byte for LZ4, 1032 for Deflate), so
+    /// a blob asks for at most that multiple of its own size.
     ///
     /// # Errors
-    /// As [`decode_into`](Self::decode_into), minus [`Error::BufferTooSmall`].
+    /// As [`decode_into`](Self::decode_into), minus [`Error::BufferTooSmall`];
+    /// [`Error::OutOfMemory`] if the allocator refuses the buffer.
     #[cfg(feature = "alloc")]
     pub fn decode(&self) -> Result<OwnedStbn, Error> {
-        let mut data = alloc::vec![0u8; self.decoded_len()];
+        let len = self.decoded_len();
+        let mut data = alloc::vec::Vec::new();
+        data.try_reserve_exact(len)
+            .map_err(|_| Error::OutOfMemory { bytes: len })?;
+        data.resize(len, 0);
         let header = *self.decode_into(&mut data)?.header();
         Ok(OwnedStbn { header, data })
     }

@@ -159,14 +159,19 @@ impl<'a> Stbn<'a> {
         }
     }
 
-    /// Validates a complete uncompressed blob (header, payload length and
-    /// payload CRC) and views its payload without copying.
+    /// Validates a complete uncompressed blob (header, payload length, payload CRC and
+    /// values, see [`verify`](Self::verify)) and views its payload without copying.
+    ///
+    /// The view keeps every sampling promise: finite values in `[0, 1]` (signed components in
+    /// `[-1, 1]`), unit vectors within [`UNIT_LENGTH_TOLERANCE`](crate::UNIT_LENGTH_TOLERANCE)
+    /// for direction spaces (`z >= 0` for hemispheres), finite pdfs `>= 0`.
     ///
     /// # Errors
     /// Any header error from [`MaskHeader::parse`]; [`Error::Compressed`] if the
     /// payload is compressed; [`Error::Truncated`] / [`Error::PayloadLength`] if
     /// the blob is shorter / longer than `64 + payload_len`;
-    /// [`Error::PayloadChecksum`] if the payload CRC does not match.
+    /// [`Error::PayloadChecksum`] if the payload CRC does not match;
+    /// [`Error::InvalidValue`] if a stored value breaks a promise.
     pub fn from_bytes(bytes: &'a [u8]) -> Result<Self, Error> {
         let header = MaskHeader::parse(bytes)?;
         if !header.compression.is_none() {
@@ -181,11 +186,17 @@ impl<'a> Stbn<'a> {
     /// Err(_) => panic!("...") };` turns an invalid embedded blob into a compile error.
     ///
     /// The header (including its own CRC) and the payload length are still
-    /// checked; verify the payload CRC once with [`from_bytes`](Self::from_bytes)
-    /// (in a test or at start-up) if the bytes are not trusted.
+    /// checked. The payload is trusted as written: neither its CRC nor its values are checked
+    /// (a check of every value would cost seconds per megabyte of compile time), so the
+    /// sampling promises of [`from_bytes`](Self::from_bytes) hold for the blobs the generator
+    /// writes, and for any other blob only once [`verify`](Self::verify) (or `from_bytes`) has
+    /// accepted it; call it once, in a test or at start-up, if the bytes are not trusted. A
+    /// payload that fails it still never makes sampling panic or read out of bounds, but its
+    /// values are returned as stored (an F32 mask may then return NaN, a hemisphere `z < 0`).
     ///
     /// # Errors
-    /// As [`from_bytes`](Self::from_bytes), except [`Error::PayloadChecksum`].
+    /// As [`from_bytes`](Self::from_bytes), except [`Error::PayloadChecksum`] and
+    /// [`Error::InvalidValue`].
     pub const fn from_bytes_unverified(bytes: &'a [u8]) -> Result<Self, Error> {
         let header = match MaskHeader::parse(bytes) {
             Ok(h) => h,
@@ -247,9 +258,10 @@ impl<'a> Stbn<'a> {
 
     /// Channel 0 at `(x, y, frame)`, wrapped toroidally on all three axes.
     ///
-    /// Returns the stored unit value `u`: in `[0, 1)` for Unorm encodings (the
+    /// Returns the stored unit value `u`: in `(0, 1)` for Unorm encodings (the
     /// bin midpoint `(q + 0.5) / 2^bits`), the stored `f32` for
-    /// [`Encoding::F32`]. Use [`ValueMap::apply`](crate::ValueMap::apply) for
+    /// [`Encoding::F32`] (in `[0, 1]` for a verified view, see [`verify`](Self::verify)).
+    /// Use [`ValueMap::apply`](crate::ValueMap::apply) for
     /// signed masks. Sample at an offset through [`offset`](Self::offset) or
     /// [`dimension`](Self::dimension).
     #[must_use]

@@ -563,7 +563,7 @@ impl Stbn<'_> {
     /// Decodes the run of contiguous voxels starting at channel-0 element `first` into `out`,
     /// with AVX2 where the CPU has it ([`wide`](crate::wide)).
     #[inline]
-    fn fill_vector_run<V: VectorOutput>(&self, first: usize, out: &mut [V]) {
+    pub(crate) fn fill_vector_run<V: VectorOutput>(&self, first: usize, out: &mut [V]) {
         #[cfg(target_arch = "x86_64")]
         if crate::wide::has_avx2() {
             // SAFETY: the CPU runs AVX2 code (checked just above), all that

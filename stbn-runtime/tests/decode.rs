@@ -21,8 +21,20 @@ fn cases() -> Vec<(MaskHeader, Vec<u8>)> {
         let hd = header(w, h, d, c, e);
         let n = hd.decoded_len();
         out.push((hd, random_payload(&hd, &mut rng)));
-        out.push((hd, vec![0x5A; n]));
-        out.push((hd, (0..n).map(|i| (i / 3) as u8).collect()));
+        if e == Encoding::F32 {
+            // Stored values must be in [0, 1]: a constant and a ramp of them.
+            let elements = n / 4;
+            out.push((hd, 0.375f32.to_le_bytes().repeat(elements)));
+            out.push((
+                hd,
+                (0..elements)
+                    .flat_map(|i| ((i / 3) as f32 / elements as f32).to_le_bytes())
+                    .collect(),
+            ));
+        } else {
+            out.push((hd, vec![0x5A; n]));
+            out.push((hd, (0..n).map(|i| (i / 3) as u8).collect()));
+        }
     }
     out
 }
@@ -173,12 +185,11 @@ fn corrupted_streams_error_and_never_panic() {
             let good = compress(compression, &data);
             let header = MaskHeader { compression, ..h };
             let mut buf = vec![0; data.len()];
-            // Truncated streams (re-signed so the CRC passes): always an error.
+            // Truncated streams (re-signed so the CRC passes): always an error, from the
+            // header's ratio check when too short to hold the decoded size, else the decoder.
             for cut in 1..good.len() {
                 let bytes = blob(header, &good[..cut]);
-                let r = PackedStbn::from_bytes(&bytes)
-                    .unwrap()
-                    .decode_into(&mut buf);
+                let r = PackedStbn::from_bytes(&bytes).and_then(|p| p.decode_into(&mut buf));
                 assert!(r.is_err(), "{compression:?} truncated to {cut} decoded");
                 errors += 1;
             }
@@ -199,11 +210,21 @@ fn corrupted_streams_error_and_never_panic() {
             // Pure garbage streams.
             for len in [1, 2, 7, 64, 1000] {
                 let bytes = blob(header, &rng.bytes(len));
-                let r = PackedStbn::from_bytes(&bytes)
-                    .unwrap()
-                    .decode_into(&mut buf);
+                let r = PackedStbn::from_bytes(&bytes).and_then(|p| p.decode_into(&mut buf));
                 if let Err(e) = r {
-                    assert!(matches!(e, Error::Decompress | Error::DecodedLength { .. }));
+                    assert!(
+                        matches!(
+                            e,
+                            Error::Decompress
+                                | Error::DecodedLength { .. }
+                                | Error::InvalidValue { .. }
+                                | Error::InvalidField {
+                                    field: "payload_len",
+                                    ..
+                                }
+                        ),
+                        "{e:?}"
+                    );
                     errors += 1;
                 }
             }

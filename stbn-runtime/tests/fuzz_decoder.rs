@@ -11,8 +11,14 @@
 //! header or payload CRC is recomputed after the edit, so they reach the field checks and the
 //! LZ4 / Deflate decoders behind the checksums.
 //!
-//! Every input must return without panicking; every accepted mask must sample finite values,
-//! in `[0, 1)` for Unorm channels, with finite non-negative pdfs and unit-length directions.
+//! Some mutations write F32 values that break a space's range (NaN, infinities, 1e30, -5, just
+//! above 1, the zero direction) into the payload and re-sign it, so they reach the value checks.
+//!
+//! Every input must return without panicking; every accepted mask (by `from_bytes`,
+//! `decode_into`, or `from_bytes_unverified` then `verify`) must keep the documented promises on
+//! every read: finite channel values in `[0, 1]` (`[0, 1)` for Unorm), finite values, directions
+//! of unit length within `UNIT_LENGTH_TOLERANCE` with `z >= 0` on hemispheres, and finite pdfs
+//! `>= 0` (inside `pdf_min..=pdf_max` where stored), per sample and in the vector fills.
 //! `STBN_FUZZ_ITERATIONS` raises the default 200,000 mutations for a longer local run.
 
 mod common;
@@ -23,8 +29,8 @@ use std::path::Path;
 use common::{Rng, packed_blob, random_payload};
 use glam::Vec3;
 use stbn_runtime::{
-    Compression, Encoding, MaskHeader, PackedStbn, SampleOffset, Space, Stbn, ValueMap,
-    octahedral_encode,
+    Compression, Encoding, Error, MaskHeader, PackedStbn, SampleOffset, Space, Stbn,
+    UNIT_LENGTH_TOLERANCE, ValueMap, VectorSample, octahedral_encode,
 };
 
 const DEFAULT_ITERATIONS: usize = 200_000;
@@ -61,7 +67,47 @@ fn seed_blob(
             texel[4..8].copy_from_slice(&e.y.to_le_bytes());
         }
     }
+    if matches!(space, Space::UniformHemisphere | Space::CosineHemisphere) {
+        above_the_horizon(&header, &mut payload);
+    }
     packed_blob(header, compression, &payload)
+}
+
+/// Moves every direction of a random hemisphere payload above the horizon: a signed z component
+/// into `[0.5, 1)` (z >= 0), octahedral coordinates into `[0.25, 0.75)` (|e.x| + |e.y| < 1).
+fn above_the_horizon(header: &MaskHeader, payload: &mut [u8]) {
+    let bpe = header.encoding.bytes_per_element();
+    let channels = usize::from(header.channels);
+    for texel in payload.chunks_exact_mut(channels * bpe) {
+        let targets: &[usize] = match header.value_map {
+            ValueMap::Octahedral => &[0, 1],
+            _ => &[2],
+        };
+        for &c in targets {
+            let element = &mut texel[c * bpe..(c + 1) * bpe];
+            let octahedral = header.value_map == ValueMap::Octahedral;
+            match header.encoding {
+                Encoding::F32 => {
+                    let u = f32::from_le_bytes(element[..4].try_into().unwrap());
+                    let u = if octahedral {
+                        0.25 + u * 0.5
+                    } else {
+                        0.5 + u * 0.5
+                    };
+                    element.copy_from_slice(&u.to_le_bytes());
+                }
+                _ => {
+                    // The most significant byte sets the bin's upper bits.
+                    let top = &mut element[bpe - 1];
+                    *top = if octahedral {
+                        64 + *top % 128
+                    } else {
+                        *top | 0x80
+                    };
+                }
+            }
+        }
+    }
 }
 
 /// Every combination the header accepts, once per encoding and compression.
@@ -177,6 +223,25 @@ fn mutate(input: &[u8], rng: &mut Rng) -> Vec<u8> {
                 }
                 resign_header(&mut b);
             }
+            // An F32 value outside every range (or the zero direction) over four payload
+            // bytes, re-signed: the value checks must catch what the checksums no longer do.
+            7 if b.len() >= 68 && b.get(21) == Some(&2) => {
+                let bad = [
+                    f32::NAN,
+                    f32::INFINITY,
+                    f32::NEG_INFINITY,
+                    1e30,
+                    -5.0,
+                    1.000_000_1,
+                    -1e-30,
+                    0.5,
+                    1.0,
+                    0.0,
+                ][pick(rng, 10)];
+                let i = 64 + 4 * pick(rng, (b.len() - 64) / 4);
+                b[i..i + 4].copy_from_slice(&bad.to_le_bytes());
+                resign_payload(&mut b);
+            }
             // Payload bytes changed, then the payload (and header) re-signed: the decompressors
             // and samplers see arbitrary data.
             5..=7 => {
@@ -204,6 +269,35 @@ fn mutate(input: &[u8], rng: &mut Rng) -> Vec<u8> {
     b
 }
 
+/// Asserts the promises of a verified mask on one vector read.
+fn check_vector(header: &MaskHeader, s: &VectorSample, what: &str) {
+    assert!(s.value.is_finite(), "{header:?} {what}: {s:?}");
+    assert!(
+        s.pdf.is_finite() && s.pdf >= 0.0,
+        "{header:?} {what}: pdf {}",
+        s.pdf
+    );
+    if header.space.stores_pdf() {
+        assert!(
+            s.pdf >= header.pdf_min && s.pdf <= header.pdf_max,
+            "{header:?} {what}: {s:?}"
+        );
+    }
+    if header.space.is_unit() {
+        assert!(
+            (s.value.length() - 1.0).abs() <= UNIT_LENGTH_TOLERANCE,
+            "{header:?} {what}: length {} of {s:?}",
+            s.value.length()
+        );
+    }
+    if matches!(
+        header.space,
+        Space::UniformHemisphere | Space::CosineHemisphere
+    ) {
+        assert!(s.value.z >= 0.0, "{header:?} {what}: {s:?}");
+    }
+}
+
 /// Samples an accepted mask everywhere that matters and checks every value's range.
 fn check_samples(stbn: &Stbn<'_>, rng: &mut Rng) {
     let header = stbn.header();
@@ -224,27 +318,21 @@ fn check_samples(stbn: &Stbn<'_>, rng: &mut Rng) {
             ] {
                 if unorm {
                     assert!((0.0..1.0).contains(&v), "{header:?}: channel {c} = {v}");
+                } else {
+                    assert!((0.0..=1.0).contains(&v), "{header:?}: channel {c} = {v}");
                 }
             }
         }
-        let s = view.sample_vector(x, y, f);
-        assert!(
-            s.pdf.is_finite() && s.pdf >= 0.0,
-            "{header:?}: pdf {}",
-            s.pdf
-        );
-        if header.space.stores_pdf() {
-            assert!(
-                s.pdf >= header.pdf_min && s.pdf <= header.pdf_max,
-                "{header:?}: {s:?}"
-            );
-        }
-        if unorm {
-            assert!(s.value.is_finite(), "{header:?}: {s:?}");
-            if header.space.is_unit() {
-                assert!((s.value.length() - 1.0).abs() < 1e-5, "{header:?}: {s:?}");
-            }
-        }
+        check_vector(header, &view.sample_vector(x, y, f), "sample_vector");
+        check_vector(header, &stbn.sample_vector(x, y, f), "sample_vector");
+    }
+    let mut vectors = [VectorSample {
+        value: glam::Vec4::NAN,
+        pdf: f32::NAN,
+    }; 13];
+    stbn.fill_vector_row(rng.next_u32() as i32, 0, rng.next_u32(), &mut vectors);
+    for s in &vectors {
+        check_vector(header, s, "fill_vector_row");
     }
     let mut row = [0.0f32; 13];
     stbn.fill_row(
@@ -253,6 +341,7 @@ fn check_samples(stbn: &Stbn<'_>, rng: &mut Rng) {
         rng.next_u32(),
         &mut row,
     );
+    assert!(row.iter().all(|v| (0.0..=1.0).contains(v)), "{row:?}");
     let mut frame = vec![0.0f32; 40];
     stbn.fill_frame(rng.next_u32(), &mut frame);
     let corner = stbn.offset(SampleOffset {
@@ -265,31 +354,59 @@ fn check_samples(stbn: &Stbn<'_>, rng: &mut Rng) {
     corner.fill_frame(rng.next_u32(), &mut frame);
 }
 
-/// Runs every entry point on `bytes`; returns whether a mask was decoded and sampled.
-fn exercise(bytes: &[u8], buf: &mut [u8], rng: &mut Rng) -> bool {
+/// What [`exercise`] did with one input.
+#[derive(Default)]
+struct Outcome {
+    /// A mask was decoded and sampled.
+    decoded: bool,
+    /// A verified path refused a stored value.
+    invalid_value: bool,
+}
+
+/// Runs every entry point on `bytes` and samples whatever is accepted.
+fn exercise(bytes: &[u8], buf: &mut [u8], rng: &mut Rng) -> Outcome {
+    let mut outcome = Outcome::default();
     let header = MaskHeader::parse(bytes);
     let unverified = Stbn::from_bytes_unverified(bytes);
-    if let Ok(view) = Stbn::from_bytes(bytes) {
-        assert!(header.is_ok() && unverified.is_ok());
-        check_samples(&view, rng);
+    let verified = Stbn::from_bytes(bytes);
+    if let Ok(view) = &unverified {
+        // `verify` on the unverified view decides exactly as `from_bytes`.
+        let checked = view.verify();
+        assert_eq!(checked.err(), verified.as_ref().err().copied());
+        if checked.is_ok() {
+            check_samples(view, rng);
+        }
     }
-    let Ok(packed) = PackedStbn::from_bytes(bytes) else {
-        return false;
+    match verified {
+        Ok(view) => {
+            assert!(header.is_ok() && unverified.is_ok());
+            check_samples(&view, rng);
+        }
+        Err(Error::InvalidValue { .. }) => outcome.invalid_value = true,
+        Err(_) => {}
+    }
+    let packed = match PackedStbn::from_bytes(bytes) {
+        Ok(packed) => packed,
+        Err(e) => {
+            outcome.invalid_value |= matches!(e, Error::InvalidValue { .. });
+            return outcome;
+        }
     };
     assert_eq!(Ok(*packed.header()), header);
     let needed = packed.header().decoded_len();
     if needed > buf.len() {
         // Within MAX_DECODED_BYTES but larger than this run's buffer: the decoder must say so.
         assert!(packed.decode_into(buf).is_err());
-        return false;
+        return outcome;
     }
     match packed.decode_into(buf) {
         Ok(view) => {
             check_samples(&view, rng);
-            true
+            outcome.decoded = true;
         }
-        Err(_) => false,
+        Err(e) => outcome.invalid_value |= matches!(e, Error::InvalidValue { .. }),
     }
+    outcome
 }
 
 #[test]
@@ -298,7 +415,7 @@ fn decoder_survives_seeded_mutations_of_the_corpus() {
     for (i, blob) in corpus.iter().enumerate() {
         let mut buf = vec![0u8; 1 << 16];
         assert!(
-            exercise(blob, &mut buf, &mut Rng(i as u64)),
+            exercise(blob, &mut buf, &mut Rng(i as u64)).decoded,
             "corpus entry {i} does not decode"
         );
     }
@@ -308,7 +425,7 @@ fn decoder_survives_seeded_mutations_of_the_corpus() {
         .unwrap_or(DEFAULT_ITERATIONS);
     let mut rng = Rng(0x5EED_DEC0);
     let mut buf = vec![0u8; 1 << 16];
-    let mut decoded = 0usize;
+    let (mut decoded, mut invalid_values) = (0usize, 0usize);
     for i in 0..iterations {
         let input = &corpus[rng.next_u32() as usize % corpus.len()];
         let mutated = mutate(input, &mut rng);
@@ -316,8 +433,10 @@ fn decoder_survives_seeded_mutations_of_the_corpus() {
             exercise(&mutated, &mut buf, &mut Rng(i as u64))
         }));
         match result {
-            Ok(true) => decoded += 1,
-            Ok(false) => {}
+            Ok(outcome) => {
+                decoded += usize::from(outcome.decoded);
+                invalid_values += usize::from(outcome.invalid_value);
+            }
             Err(_) => panic!(
                 "iteration {i} panicked on a {}-byte input: {:02x?}",
                 mutated.len(),
@@ -330,5 +449,13 @@ fn decoder_survives_seeded_mutations_of_the_corpus() {
         decoded > iterations / 20,
         "only {decoded} of {iterations} mutations decoded"
     );
-    println!("{iterations} mutations, {decoded} decoded and sampled");
+    // And the value checks, not only the header's.
+    assert!(
+        invalid_values > iterations / 200,
+        "only {invalid_values} of {iterations} mutations reached a value check"
+    );
+    println!(
+        "{iterations} mutations, {decoded} decoded and sampled, {invalid_values} refused for a \
+         stored value"
+    );
 }

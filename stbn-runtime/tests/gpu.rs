@@ -716,9 +716,11 @@ fn vulkan_vector_helpers_match_sample_vector() {
             ];
             for (hd, expr) in cases {
                 let source = mask_blob(hd.width, hd.height, hd.depth, 3, encoding, 99);
-                // Same payload, now declared as the vector space.
+                // Same payload, now declared as the vector space: random, so some hemisphere
+                // directions lie below the horizon, which `from_bytes` refuses; the GPU must
+                // still match the CPU on the values as stored.
                 let bytes = blob(hd, &source[64..]);
-                let mask = Stbn::from_bytes(&bytes).expect("valid vector mask");
+                let mask = Stbn::from_bytes_unverified(&bytes).expect("valid vector mask header");
                 let s = sampler_with(&g, Kind::D3, &expr);
                 let texture = upload(&g, &mask, Kind::D3);
                 let qs = queries(&mask, 5);
