@@ -275,7 +275,7 @@ pub fn encoding(plan: &Plan) -> Result<Section> {
                     ));
                 }
             }
-            println!(
+            outln!(
                 "  {name}, {layout_name}: largest MC RMSE change {:+.2}% ({:?})",
                 largest_change.0, largest_change.1
             );
