@@ -9,9 +9,9 @@ use stbn_gen::baselines::comparison;
 use stbn_gen::export::read_slices_png;
 use stbn_gen::{FilterAdaptedSpec, MaskSpec, Observer, generate, generate_filter_adapted};
 
+use crate::Result;
 use crate::report::Report;
 use crate::staging::{self, Staging};
-use crate::Result;
 
 /// Reads every folder of `<name>_<z>.png` slices in `dirs`, prints a summary line per mask and
 /// writes `<out>/report.md`. With `baseline_seed`, also generates and measures every baseline

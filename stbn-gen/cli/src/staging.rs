@@ -649,7 +649,11 @@ mod tests {
     fn commit_replaces_its_own_output_whole_and_leaves_other_files_alone() {
         let out = tempfile::tempdir().unwrap();
         let out = out.path();
-        run(out, &[("mask/mask_0.png", "old"), ("mask/mask_1.png", "old")]).unwrap();
+        run(
+            out,
+            &[("mask/mask_0.png", "old"), ("mask/mask_1.png", "old")],
+        )
+        .unwrap();
         fs::write(out.join("kept.txt"), "kept").unwrap();
 
         let claims = |name: &str| name == "mask" || name == "report.md";
@@ -682,7 +686,10 @@ mod tests {
             .err()
             .unwrap()
             .to_string();
-        assert!(error.contains("1 path that stbn-gen did not write"), "{error}");
+        assert!(
+            error.contains("1 path that stbn-gen did not write"),
+            "{error}"
+        );
         assert!(error.contains("mask"), "{error}");
         assert!(error.contains("nothing was written"), "{error}");
         fs::remove_dir_all(out.join("mask")).unwrap();
@@ -696,8 +703,14 @@ mod tests {
         let error = staging.commit().err().unwrap().to_string();
         assert!(error.contains("mask/notes.txt"), "{error}");
         assert!(error.contains("previous one left as it was"), "{error}");
-        assert_eq!(fs::read_to_string(out.join("mask/mask_0.png")).unwrap(), "old");
-        assert_eq!(fs::read_to_string(out.join("mask/notes.txt")).unwrap(), "mine");
+        assert_eq!(
+            fs::read_to_string(out.join("mask/mask_0.png")).unwrap(),
+            "old"
+        );
+        assert_eq!(
+            fs::read_to_string(out.join("mask/notes.txt")).unwrap(),
+            "mine"
+        );
         assert_eq!(names(&out.join(STATE_DIR)), [COMMIT_LOCK, LIST]);
 
         // A symlink in place of a mask folder, and more conflicts than are named.
@@ -753,12 +766,24 @@ mod tests {
     fn a_switch_killed_half_way_is_completed_by_the_next_run() {
         let out = tempfile::tempdir().unwrap();
         let out = out.path();
-        run(out, &[("a/a_0.png", "old a"), ("b.stbn", "old b"), ("report.md", "old")]).unwrap();
+        run(
+            out,
+            &[
+                ("a/a_0.png", "old a"),
+                ("b.stbn", "old b"),
+                ("report.md", "old"),
+            ],
+        )
+        .unwrap();
         // A run that moved `a` aside and `a` in, then was killed: `b.stbn` and the report still
         // old, the list still the old one.
         let staging = Staging::new(out, &all, 100).unwrap();
         let root = staging.root.clone();
-        for (path, text) in [("a/a_0.png", "new a"), ("b.stbn", "new b"), ("report.md", "new")] {
+        for (path, text) in [
+            ("a/a_0.png", "new a"),
+            ("b.stbn", "new b"),
+            ("report.md", "new"),
+        ] {
             let path = staging.dir().join(path);
             fs::create_dir_all(path.parent().unwrap()).unwrap();
             fs::write(path, text).unwrap();
@@ -778,7 +803,11 @@ mod tests {
         drop(staging);
 
         run(out, &[("other.txt", "x")]).unwrap();
-        for (path, text) in [("a/a_0.png", "new a"), ("b.stbn", "new b"), ("report.md", "new")] {
+        for (path, text) in [
+            ("a/a_0.png", "new a"),
+            ("b.stbn", "new b"),
+            ("report.md", "new"),
+        ] {
             assert_eq!(fs::read_to_string(out.join(path)).unwrap(), text, "{path}");
         }
         assert!(!root.exists());
@@ -818,7 +847,10 @@ mod tests {
             .err()
             .unwrap()
             .to_string();
-        assert!(error.contains("output:1: not a list stbn-gen wrote"), "{error}");
+        assert!(
+            error.contains("output:1: not a list stbn-gen wrote"),
+            "{error}"
+        );
     }
 
     #[test]

@@ -550,12 +550,18 @@ fn files_stbn_gen_did_not_write_are_never_replaced() {
     }
     generate(&two_masks(dir.path(), 2, 1), &out);
     let second = snapshot(&out);
-    assert_ne!(first[Path::new("s/s_0.png")], second[Path::new("s/s_0.png")]);
+    assert_ne!(
+        first[Path::new("s/s_0.png")],
+        second[Path::new("s/s_0.png")]
+    );
     assert_eq!(
         first.keys().collect::<Vec<_>>(),
         second.keys().collect::<Vec<_>>()
     );
-    assert_eq!(second[Path::new("data/sales.csv")], before[Path::new("data/sales.csv")]);
+    assert_eq!(
+        second[Path::new("data/sales.csv")],
+        before[Path::new("data/sales.csv")]
+    );
 
     // A file put into a mask's folder since, and a symlink in place of one: refused, named.
     fs::write(out.join("s/notes.txt"), "notes").unwrap();
@@ -563,7 +569,10 @@ fn files_stbn_gen_did_not_write_are_never_replaced() {
         &["generate".as_ref(), &manifest, "--out".as_ref(), &out],
         MINUTE,
     );
-    assert_fails_with(&refused, &["1 path that stbn-gen did not write", "s/notes.txt"]);
+    assert_fails_with(
+        &refused,
+        &["1 path that stbn-gen did not write", "s/notes.txt"],
+    );
     #[cfg(unix)]
     {
         fs::remove_dir_all(out.join("v")).unwrap();
@@ -586,13 +595,21 @@ fn output_into_the_current_folder_keeps_its_other_files() {
     fs::create_dir(&work).unwrap();
     fs::write(work.join("Cargo.toml"), "[package]\n").unwrap();
     for _ in 0..2 {
-        let output = command(&["generate".as_ref(), &manifest, "--out".as_ref(), ".".as_ref()])
-            .current_dir(&work)
-            .output()
-            .unwrap();
+        let output = command(&[
+            "generate".as_ref(),
+            &manifest,
+            "--out".as_ref(),
+            ".".as_ref(),
+        ])
+        .current_dir(&work)
+        .output()
+        .unwrap();
         assert!(output.status.success(), "{output:?}");
     }
-    assert_eq!(fs::read_to_string(work.join("Cargo.toml")).unwrap(), "[package]\n");
+    assert_eq!(
+        fs::read_to_string(work.join("Cargo.toml")).unwrap(),
+        "[package]\n"
+    );
     assert!(work.join("s/s_7.png").exists() && work.join("report.md").exists());
 }
 
@@ -623,11 +640,16 @@ fn a_closed_stdout_or_stderr_neither_panics_nor_loses_the_output() {
     assert!(out.join("v/v_15.png").exists());
 
     // An error with stderr closed: status 1, not a panic's 101.
-    let mut child = command(&["generate".as_ref(), &dir.path().join("missing.ron"), "--out".as_ref(), &out])
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
+    let mut child = command(&[
+        "generate".as_ref(),
+        &dir.path().join("missing.ron"),
+        "--out".as_ref(),
+        &out,
+    ])
+    .stdout(Stdio::null())
+    .stderr(Stdio::piped())
+    .spawn()
+    .unwrap();
     drop(child.stderr.take());
     assert_eq!(child.wait().unwrap().code(), Some(1));
 }
@@ -668,14 +690,23 @@ fn an_out_that_is_a_file_is_refused_by_every_command() {
     fs::create_dir(&slices).unwrap();
     let start = Instant::now();
     for args in [
-        vec!["generate".as_ref(), manifest.as_path(), "--out".as_ref(), &file],
+        vec![
+            "generate".as_ref(),
+            manifest.as_path(),
+            "--out".as_ref(),
+            &file,
+        ],
         vec!["analyze".as_ref(), &slices, "--out".as_ref(), &file],
         vec!["tradeoff".as_ref(), "--out".as_ref(), &file],
     ] {
         let run = run(&args, MINUTE);
         assert_fails_with(&run, &["the output folder", "file is a file, not a folder"]);
     }
-    assert!(start.elapsed() < Duration::from_secs(20), "{:?}", start.elapsed());
+    assert!(
+        start.elapsed() < Duration::from_secs(20),
+        "{:?}",
+        start.elapsed()
+    );
     assert_eq!(fs::read_to_string(&file).unwrap(), "mine");
 }
 
@@ -687,13 +718,14 @@ fn tradeoff_checks_its_output_folder_before_any_work() {
     fs::write(out.join("threads.csv"), "mine").unwrap();
     fs::write(out.join("notes.txt"), "mine").unwrap();
     let start = Instant::now();
-    let refused = run(
-        &["tradeoff".as_ref(), "--out".as_ref(), &out],
-        MINUTE,
-    );
+    let refused = run(&["tradeoff".as_ref(), "--out".as_ref(), &out], MINUTE);
     assert_fails_with(&refused, &["threads.csv", "did not write"]);
     assert!(refused.stdout.is_empty(), "{}", refused.stdout);
-    assert!(start.elapsed() < Duration::from_secs(20), "{:?}", start.elapsed());
+    assert!(
+        start.elapsed() < Duration::from_secs(20),
+        "{:?}",
+        start.elapsed()
+    );
 
     fs::remove_file(out.join("threads.csv")).unwrap();
     let args: [&Path; 6] = [

@@ -184,7 +184,8 @@ pub fn kernel(plan: &Plan) -> Result<Section> {
         let seconds = m.timing.median();
         outln!(
             "  σ {} tolerance {}: {taps} taps, {seconds:.3} s",
-            spec.sigma_xy, spec.kernel_tolerance
+            spec.sigma_xy,
+            spec.kernel_tolerance
         );
         let mut row = vec![
             Cell::text(sweep),
