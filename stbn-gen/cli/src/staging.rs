@@ -562,7 +562,14 @@ mod signals {
     pub struct Held {
         #[cfg(unix)]
         previous: Vec<(libc::c_int, libc::sighandler_t)>,
+        #[cfg(unix)]
+        _one_at_a_time: std::sync::MutexGuard<'static, ()>,
     }
+
+    /// Held by every [`Held`]: dispositions are process-wide, so holds do not overlap (one per
+    /// run; several only in tests).
+    #[cfg(unix)]
+    pub static HOLDS: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
     #[cfg(unix)]
     static NOTED: std::sync::atomic::AtomicI32 = std::sync::atomic::AtomicI32::new(0);
@@ -579,6 +586,7 @@ mod signals {
         pub fn new() -> Held {
             #[cfg(unix)]
             {
+                let one_at_a_time = HOLDS.lock().unwrap_or_else(|e| e.into_inner());
                 let previous = SIGNALS
                     .iter()
                     .map(|&signal| {
@@ -588,7 +596,10 @@ mod signals {
                         (signal, unsafe { libc::signal(signal, handler) })
                     })
                     .collect();
-                Held { previous }
+                Held {
+                    previous,
+                    _one_at_a_time: one_at_a_time,
+                }
             }
             #[cfg(not(unix))]
             Held {}
@@ -851,6 +862,30 @@ mod tests {
             error.contains("output:1: not a list stbn-gen wrote"),
             "{error}"
         );
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_signal_during_the_switch_takes_effect_after_it() {
+        use std::sync::atomic::{AtomicI32, Ordering};
+        static SEEN: AtomicI32 = AtomicI32::new(0);
+        extern "C" fn seen(signal: libc::c_int) {
+            SEEN.store(signal, Ordering::SeqCst);
+        }
+        let install = |handler: libc::sighandler_t| {
+            let _no_hold = signals::HOLDS.lock().unwrap_or_else(|e| e.into_inner());
+            // SAFETY: `seen` only stores to an atomic (async-signal-safe); installed while no
+            // hold is active, so none restores an older handler over it.
+            unsafe { libc::signal(libc::SIGHUP, handler) }
+        };
+        let previous = install(seen as extern "C" fn(libc::c_int) as libc::sighandler_t);
+        let held = signals::Held::new();
+        // SAFETY: raises SIGHUP at this thread, which `held` notes instead of acting on.
+        unsafe { libc::raise(libc::SIGHUP) };
+        assert_eq!(SEEN.load(Ordering::SeqCst), 0);
+        drop(held);
+        assert_eq!(SEEN.load(Ordering::SeqCst), libc::SIGHUP);
+        install(previous);
     }
 
     #[test]
