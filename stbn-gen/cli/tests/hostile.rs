@@ -392,13 +392,14 @@ fn staging_folders(out: &Path) -> Vec<PathBuf> {
         .collect()
 }
 
-/// Waits until a staging folder in `out` holds `path` (the run has staged it).
-fn wait_until_staged(out: &Path, path: &str) -> PathBuf {
+/// Waits until a staging folder in `out` that is not one of `earlier` holds `path` (the run has
+/// staged it); `earlier` are folders stopped runs left, which hold it too.
+fn wait_until_staged(out: &Path, path: &str, earlier: &[PathBuf]) -> PathBuf {
     let start = Instant::now();
     loop {
         if let Some(staging) = staging_folders(out)
             .into_iter()
-            .find(|staging| staging.join("out").join(path).exists())
+            .find(|staging| !earlier.contains(staging) && staging.join("out").join(path).exists())
         {
             return staging;
         }
@@ -460,11 +461,12 @@ fn an_interrupted_run_leaves_the_previous_output_untouched() {
     let second = two_masks(dir.path(), 2, 10000);
     for signal in [libc::SIGINT, libc::SIGTERM, libc::SIGKILL] {
         let logs = tempfile::tempdir().unwrap();
+        let earlier = staging_folders(&out);
         let child = spawn(
             &["generate".as_ref(), &second, "--out".as_ref(), &out],
             logs.path(),
         );
-        wait_until_staged(&out, "s/s_7.png");
+        wait_until_staged(&out, "s/s_7.png", &earlier);
         std::thread::sleep(Duration::from_millis(200));
         let pid = libc::pid_t::try_from(child.id()).unwrap();
         // SAFETY: sends a signal to the child this test started (not yet waited for, so its pid
@@ -505,7 +507,7 @@ fn a_run_failing_after_its_first_mask_leaves_the_previous_output_untouched() {
         ],
         logs.path(),
     );
-    let staging = wait_until_staged(&out, "s/s_7.png");
+    let staging = wait_until_staged(&out, "s/s_7.png", &[]);
     // Paused while the obstacle is placed, so `v` cannot be written first.
     let pid = libc::pid_t::try_from(child.id()).unwrap();
     // SAFETY: signals the child this test started and has not waited for; no memory is passed.
