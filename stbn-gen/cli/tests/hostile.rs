@@ -394,6 +394,7 @@ fn staging_folders(out: &Path) -> Vec<PathBuf> {
 
 /// Waits until a staging folder in `out` that is not one of `earlier` holds `path` (the run has
 /// staged it); `earlier` are folders stopped runs left, which hold it too.
+#[cfg(unix)]
 fn wait_until_staged(out: &Path, path: &str, earlier: &[PathBuf]) -> PathBuf {
     let start = Instant::now();
     loop {
