@@ -1,7 +1,7 @@
 //! `stbn-gen analyze`: the report for folders of PNG slices, optionally beside baseline fields.
 
+use std::fs;
 use std::path::{Path, PathBuf};
-
 use std::time::Instant;
 
 use stbn_gen::analysis::Field;
@@ -11,7 +11,7 @@ use stbn_gen::{FilterAdaptedSpec, MaskSpec, Observer, generate, generate_filter_
 
 use crate::Result;
 use crate::report::Report;
-use crate::staging::Staging;
+use crate::staging::{self, Staging};
 
 /// Reads every folder of `<name>_<z>.png` slices in `dirs`, prints a summary line per mask and
 /// writes `<out>/report.md`. With `baseline_seed`, also generates and measures every baseline
@@ -22,13 +22,19 @@ use crate::staging::Staging;
 /// filter-adapted mask (`FilterAdapted` with its defaults: optimised for the filter the
 /// filtered-error column applies) of that size and seed.
 ///
-/// `out` is checked to be a writable folder before anything is read, and the report is written
-/// into a staging folder and moved into place at the end ([`Staging`]). Folders of colour slices
+/// Before anything is read: each folder's slices start at 0 and the report's file names after
+/// them fit file-name limits ([`check_slices`]), `out` is a writable folder and holds nothing
+/// stbn-gen did not write where the report goes. The report is written into a staging folder and
+/// switched in at the end ([`Staging`]). Folders of colour slices
 /// whose channels differ (only red is read) and slices that hold one value (they measure as
 /// perfect) are warned about on stderr and in the report.
 pub fn run(dirs: &[PathBuf], out: &Path, baseline_seed: Option<u64>) -> Result<()> {
-    let staging = Staging::new(out)?;
-    let mut report = Report::create(staging.dir())?;
+    for (index, dir) in dirs.iter().enumerate() {
+        check_slices(dir, index)?;
+    }
+    let planned = Report::files();
+    let staging = Staging::new(out, &|name| planned.iter().any(|p| p == name), 300)?;
+    let mut report = Report::create(&staging.dir())?;
     let mut sizes = Vec::with_capacity(dirs.len());
     let mut warnings = Vec::new();
     for dir in dirs {
@@ -52,11 +58,11 @@ pub fn run(dirs: &[PathBuf], out: &Path, baseline_seed: Option<u64>) -> Result<(
         }
         let kind = format!("png {}-bit", stack.bit_depth().bits());
         let row = report.measure(stack.name(), &kind, None, &field)?;
-        println!("{}", row.summary());
+        outln!("{}", row.summary());
         sizes.push(row.size);
     }
     for warning in &warnings {
-        eprintln!("warning: {warning}");
+        errln!("warning: {warning}");
     }
     let folders: Vec<String> = dirs
         .iter()
@@ -79,7 +85,7 @@ pub fn run(dirs: &[PathBuf], out: &Path, baseline_seed: Option<u64>) -> Result<(
                     Field::new(w, h, d, &baseline.values).expect("baselines are valid fields");
                 let name = format!("{}_{w}x{h}x{d}", baseline.name);
                 let row = report.measure(&name, baseline.kind, Some(baseline.seconds), &field)?;
-                println!("{}", row.summary());
+                outln!("{}", row.summary());
             }
             let (wu, hu, du) = (axis(w)?, axis(h)?, axis(d)?);
             let start = Instant::now();
@@ -99,7 +105,7 @@ pub fn run(dirs: &[PathBuf], out: &Path, baseline_seed: Option<u64>) -> Result<(
                 let field = Field::new(w, h, d, &values).expect("masks are valid fields");
                 let name = format!("{name}_{w}x{h}x{d}");
                 let row = report.measure(&name, kind, Some(seconds), &field)?;
-                println!("{}", row.summary());
+                outln!("{}", row.summary());
             }
         }
         intro.push_str(&format!(
@@ -123,15 +129,83 @@ pub fn run(dirs: &[PathBuf], out: &Path, baseline_seed: Option<u64>) -> Result<(
         ));
     }
     report.finish(&intro, "")?;
-    staging.commit(&Report::files())?;
-    println!("report: {}", out.join("report.md").display());
+    staging.commit()?;
+    outln!("report: {}", out.join("report.md").display());
+    Ok(())
+}
+
+/// Longest file name common file systems allow, in bytes.
+const MAX_FILE_NAME: usize = 255;
+
+/// Refuses, before anything is decoded, a folder of `<name>_<z>.png` slices (the `index`th
+/// analysed) whose first slice is not slice 0 (naming the missing ones), or whose name is too
+/// long for the report's `dft/<index>_<name>_xy.png` images. Everything else about the slices is
+/// checked as they are read.
+fn check_slices(dir: &Path, index: usize) -> Result<()> {
+    // A folder that cannot be listed is reported by the reader.
+    let Ok(entries) = fs::read_dir(dir) else {
+        return Ok(());
+    };
+    let mut first: Option<(usize, String, PathBuf)> = None;
+    for entry in entries.flatten() {
+        let path = entry.path();
+        if !path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("png"))
+        {
+            continue;
+        }
+        let Some((prefix, z)) = path
+            .file_stem()
+            .and_then(|s| s.to_str())
+            .and_then(|s| s.rsplit_once('_'))
+        else {
+            continue;
+        };
+        if z.is_empty() || !z.bytes().all(|b| b.is_ascii_digit()) {
+            continue;
+        }
+        let Ok(z) = z.parse::<usize>() else {
+            continue;
+        };
+        if first.as_ref().is_some_and(|f| f.0 <= z) {
+            continue;
+        }
+        first = Some((z, prefix.to_owned(), path));
+    }
+    let Some((z, name, path)) = first else {
+        return Ok(());
+    };
+    let shown_name = staging::bounded(&name, 60);
+    if z > 0 {
+        let missing = if z == 1 {
+            "slice 0 is".to_owned()
+        } else {
+            format!("slices 0–{} are", z - 1)
+        };
+        return Err(format!(
+            "{}: {missing} missing: the first slice of `{shown_name}` is {} (a mask's slices are              numbered from 0)",
+            staging::shown(dir),
+            staging::shown(&path)
+        )
+        .into());
+    }
+    // `<index, at least 2 digits>_<name, one byte a character>_xy.png`.
+    let fixed = index.to_string().len().max(2) + "_".len() + "_xy.png".len();
+    let length = name.chars().count();
+    if fixed + length > MAX_FILE_NAME {
+        return Err(format!(
+            "{}: the slice name `{shown_name}` is {length} characters long; the report names              files after it (`dft/{index:02}_<name>_xy.png`), so at most {} fit the {MAX_FILE_NAME}-byte              limit on file names (rename the slices)",
+            staging::shown(dir),
+            MAX_FILE_NAME - fixed
+        )
+        .into());
+    }
     Ok(())
 }
 
 #[cfg(test)]
 mod tests {
-    use std::fs;
-
     use stbn_gen::export::{PngDepth, write_slices_png};
     use stbn_gen::{EnergyTopology, MaskSpec};
 

@@ -1,6 +1,7 @@
 //! `stbn-gen generate`: every mask of a manifest to PNG slices, KTX2 textures or `.stbn` blobs,
 //! with a report.
 
+use std::collections::BTreeSet;
 use std::fs;
 use std::path::Path;
 use std::time::Instant;
@@ -40,9 +41,11 @@ pub enum OutputFormat {
 /// every mask a swap optimiser makes (the vector kinds and `FilterAdapted`).
 ///
 /// Checked before anything is generated: the manifest declares a mask, no mask is named like a
-/// folder of the report ([`report::RESERVED_NAMES`]), and `out` is a writable folder. Everything
-/// is written into a staging folder inside `out` and moved into place at the end ([`Staging`]):
-/// an interrupted or failed run leaves the previous output as it was.
+/// folder of the report ([`report::RESERVED_NAMES`]), `out` is a writable folder, and nothing in
+/// `out` that this run would replace was written by anything but stbn-gen. Everything is written
+/// into a staging folder and switched in at the end ([`Staging`]): an interrupted or failed run
+/// leaves the previous output as it was, and files of `out` the run does not write are left
+/// alone.
 pub fn run(
     manifest: &Path,
     out: &Path,
@@ -73,9 +76,22 @@ pub fn run(
                 .into());
         }
     }
-    let staging = Staging::new(out)?;
-    let mut report = Report::create(staging.dir())?;
-    let mut written = Vec::new();
+    let mut planned: BTreeSet<String> = Report::files().into_iter().collect();
+    for entry in manifest.masks() {
+        planned.extend(files(entry, format));
+    }
+    // Under `<out>`: `<name>/<name>_<frame>.png` and `<name>/<name>_trace.csv` (frames up to
+    // 65536), or the report's `dft/<index>_<name>_xy.png` and fixed names.
+    let longest = manifest
+        .masks()
+        .iter()
+        .map(|entry| 2 * entry.name.len() + 24)
+        .max()
+        .unwrap_or(0)
+        .max(100);
+    let staging = Staging::new(out, &|name| planned.contains(name), longest)?;
+    let dir = staging.dir();
+    let mut report = Report::create(&dir)?;
     let mut point_sections = String::new();
     let mut references = pairs::References::new();
     for entry in manifest.masks() {
@@ -119,7 +135,7 @@ pub fn run(
             (Method::FilterAdapted, Some(space)) => format!("{:?}({space:?})", entry.kind),
             _ => format!("{:?}", entry.kind),
         };
-        let dir = staging.dir();
+        let dir = dir.as_path();
         let name = &entry.name;
         match (format, &generated) {
             (OutputFormat::Png, Generated::Scalar(volume)) => {
@@ -132,32 +148,26 @@ pub fn run(
                     PngDepth::Sixteen
                 };
                 write_slices_png(&field, dir, name, depth)?;
-                written.push(name.clone());
             }
             (OutputFormat::Png, Generated::Vector { trace, .. }) => {
                 let folder = dir.join(name);
                 vector::write_png_slices(&mask, &folder, name)?;
                 vector::write_sidecar(&mask, entry, trace, &folder)?;
                 vector::write_trace(trace, &folder, name)?;
-                written.push(name.clone());
             }
             (OutputFormat::Ktx2, _) => {
                 let file = ktx2::write(w, h, d, mask.channels(), entry.encoding, mask.data())
                     .map_err(|e| mask_error(&e))?;
                 let path = dir.join(format!("{name}.ktx2"));
                 fs::write(&path, file).map_err(|e| format!("writing {}: {e}", path.display()))?;
-                written.push(format!("{name}.ktx2"));
                 if let Generated::Vector { trace, .. } = &generated {
                     vector::write_sidecar(&mask, entry, trace, dir)?;
                     vector::write_trace(trace, dir, name)?;
-                    written.push(format!("{name}.json"));
-                    written.push(format!("{name}_trace.csv"));
                 }
             }
             (OutputFormat::Stbn, _) => {
                 let path = dir.join(format!("{name}.stbn"));
                 fs::write(&path, &blob).map_err(|e| format!("writing {}: {e}", path.display()))?;
-                written.push(format!("{name}.stbn"));
             }
         }
         // Both families are measured on their generated values: scalar masks as one field,
@@ -177,7 +187,7 @@ pub fn run(
                 report.measure_vector(name, &kind, Some(seconds), &field)?
             }
         };
-        println!("{}", row.summary());
+        outln!("{}", row.summary());
     }
     let written_as = match format {
         OutputFormat::Png => "PNG slices `<name>/<name>_<frame>.png`",
@@ -199,10 +209,25 @@ pub fn run(
         point_sections.insert_str(0, pairs::HEADING);
     }
     report.finish(&intro, &point_sections)?;
-    written.extend(Report::files());
-    staging.commit(&written)?;
-    println!("report: {}", out.join("report.md").display());
+    staging.commit()?;
+    outln!("report: {}", out.join("report.md").display());
     Ok(())
+}
+
+/// The names `entry` gets in the output folder in `format` (a vector mask's sidecar and trace
+/// beside its `.ktx2`; inside its folder as PNG slices).
+fn files(entry: &MaskEntry, format: OutputFormat) -> Vec<String> {
+    let name = &entry.name;
+    match format {
+        OutputFormat::Png => vec![name.clone()],
+        OutputFormat::Ktx2 if sample_space(entry).is_some() => vec![
+            format!("{name}.ktx2"),
+            format!("{name}.json"),
+            format!("{name}_trace.csv"),
+        ],
+        OutputFormat::Ktx2 => vec![format!("{name}.ktx2")],
+        OutputFormat::Stbn => vec![format!("{name}.stbn")],
+    }
 }
 
 /// The space the values of vector mask `entry` are drawn from; `None` for scalar masks.

@@ -2,6 +2,21 @@
 //! `.stbn` blobs, or analyse folders of PNG slices, and write a quality report (`report.md`) for
 //! either.
 
+/// `println!` that cannot panic: a line to stdout, dropped if stdout is closed (`| head -1`
+/// closes the pipe; the run goes on and commits its output).
+macro_rules! outln {
+    ($($arg:tt)*) => {
+        $crate::write_line(&mut std::io::stdout(), format_args!($($arg)*))
+    };
+}
+
+/// `eprintln!` that cannot panic: a line to stderr, dropped if stderr is closed.
+macro_rules! errln {
+    ($($arg:tt)*) => {
+        $crate::write_line(&mut std::io::stderr(), format_args!($($arg)*))
+    };
+}
+
 mod analyze;
 mod generate;
 mod ktx2;
@@ -12,6 +27,7 @@ mod staging;
 mod tradeoff;
 mod vector;
 
+use std::io::Write;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -44,7 +60,9 @@ enum Command {
     Generate {
         /// The `assets.ron` manifest.
         manifest: PathBuf,
-        /// Output folder (created if needed).
+        /// Output folder (created if needed). Only what stbn-gen wrote there is replaced (listed
+        /// in `<OUT>/.stbn-gen/output`); anything else in the way is refused before any work,
+        /// other files are left alone. The output switches in whole when the run is done.
         #[arg(long)]
         out: PathBuf,
         /// Output format of the masks.
@@ -68,7 +86,8 @@ enum Command {
         /// Folders of slices, one mask each.
         #[arg(required = true)]
         dirs: Vec<PathBuf>,
-        /// Folder for report.md (created if needed).
+        /// Folder for report.md (created if needed; only what stbn-gen wrote there is replaced,
+        /// see `generate --help`).
         #[arg(long)]
         out: PathBuf,
         /// Also measure six baselines generated from this seed at each mask size, side by side:
@@ -83,7 +102,8 @@ enum Command {
     /// targets): CSV files, markdown tables and PNG plots per knob, gathered in
     /// `<OUT>/tradeoff.md`.
     Tradeoff {
-        /// Output folder (created if needed).
+        /// Output folder (created if needed; only what stbn-gen wrote there is replaced, see
+        /// `generate --help`).
         #[arg(long)]
         out: PathBuf,
         /// Small masks and few points (a check that runs in seconds; not figures to quote).
@@ -123,8 +143,17 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {
-            eprintln!("error: {error}");
+            errln!("error: {error}");
             ExitCode::FAILURE
         }
     }
+}
+
+/// Writes `args` and a line break to `stream`, ignoring errors (a closed pipe above all): what
+/// the command prints is a courtesy, its output folder the result.
+fn write_line(stream: &mut dyn Write, args: std::fmt::Arguments<'_>) {
+    let _ = stream
+        .write_fmt(args)
+        .and_then(|()| stream.write_all(b"\n"))
+        .and_then(|()| stream.flush());
 }

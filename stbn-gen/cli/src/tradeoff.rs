@@ -23,6 +23,7 @@ use stbn_gen::VectorSpec;
 
 use crate::Result;
 use crate::output::{self, Chart, Table};
+use crate::staging::Staging;
 
 /// One measured knob (a section of tradeoff.md).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, ValueEnum)]
@@ -192,6 +193,11 @@ pub struct Section {
 
 /// Runs the knobs of `only` (every knob if empty) with the full plan or, with `quick`, the
 /// quick one, writes `<out>/<knob>.md`, its CSV files and plots, and `<out>/tradeoff.md`.
+///
+/// `out` is checked first: a writable folder holding nothing stbn-gen did not write under the
+/// names the chosen knobs write (`tradeoff.md`, `<knob>*.csv`, `<knob>*.png`, `<knob>*.md`).
+/// Everything is written into a staging folder and switched in when every knob is done
+/// ([`Staging`]): a stopped or failed run leaves the previous output as it was.
 pub fn run(out: &Path, quick: bool, only: &[Knob]) -> Result<()> {
     let plan = if quick { Plan::quick() } else { Plan::full() };
     let knobs: Vec<Knob> = if only.is_empty() {
@@ -199,11 +205,19 @@ pub fn run(out: &Path, quick: bool, only: &[Knob]) -> Result<()> {
     } else {
         Knob::ALL.into_iter().filter(|k| only.contains(k)).collect()
     };
-    output::create_dir(out)?;
+    let claims = |name: &str| {
+        name == "tradeoff.md"
+            || knobs.iter().any(|knob| {
+                name.starts_with(knob.key())
+                    && [".csv", ".png", ".md"].iter().any(|e| name.ends_with(e))
+            })
+    };
+    let staging = Staging::new(out, &claims, 100)?;
+    let dir = staging.dir();
     let mut text = header(&plan, &knobs);
     for knob in knobs {
         let (started, load_before) = (measure::utc_now(), measure::load_average());
-        println!("{}: started {started}, load {load_before}", knob.key());
+        outln!("{}: started {started}, load {load_before}", knob.key());
         let clock = Instant::now();
         let section = match knob {
             Knob::Size => scalar::size(&plan),
@@ -216,17 +230,17 @@ pub fn run(out: &Path, quick: bool, only: &[Knob]) -> Result<()> {
         }?;
         let seconds = clock.elapsed().as_secs_f64();
         let load_after = measure::load_average();
-        let markdown = write_section(out, &section, &started, &load_before, &load_after, seconds)?;
-        println!(
+        let markdown = write_section(&dir, &section, &started, &load_before, &load_after, seconds)?;
+        outln!(
             "{}: {seconds:.1} s, load {load_after}; {}",
             knob.key(),
             section.findings.join(" ")
         );
         text.push_str(&markdown);
     }
-    let path = out.join("tradeoff.md");
-    output::write_text(&path, &text)?;
-    println!("tradeoff: {}", path.display());
+    output::write_text(&dir.join("tradeoff.md"), &text)?;
+    staging.commit()?;
+    outln!("tradeoff: {}", out.join("tradeoff.md").display());
     Ok(())
 }
 

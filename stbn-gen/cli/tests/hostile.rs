@@ -16,11 +16,31 @@ struct Run {
     stderr: String,
 }
 
+/// `stbn-gen args…`, with SIGINT and SIGTERM at their default disposition whatever this test
+/// inherited (a shell running it in the background ignores SIGINT, and children inherit that).
+fn command(args: &[&Path]) -> Command {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_stbn-gen"));
+    command.args(args).stdin(Stdio::null());
+    #[cfg(unix)]
+    {
+        use std::os::unix::process::CommandExt;
+        // SAFETY: the closure runs in the child between fork and exec, where only
+        // async-signal-safe calls are allowed: it calls signal(2), which is one, and allocates
+        // nothing.
+        unsafe {
+            command.pre_exec(|| {
+                libc::signal(libc::SIGINT, libc::SIG_DFL);
+                libc::signal(libc::SIGTERM, libc::SIG_DFL);
+                Ok(())
+            });
+        }
+    }
+    command
+}
+
 /// Starts `stbn-gen args…` with stdout and stderr in files of `logs`.
 fn spawn(args: &[&Path], logs: &Path) -> Child {
-    Command::new(env!("CARGO_BIN_EXE_stbn-gen"))
-        .args(args)
-        .stdin(Stdio::null())
+    command(args)
         .stdout(fs::File::create(logs.join("stdout")).unwrap())
         .stderr(fs::File::create(logs.join("stderr")).unwrap())
         .spawn()
@@ -306,7 +326,7 @@ fn refusals_come_before_any_output_and_name_their_cause() {
     );
 }
 
-/// Every file under `dir` (relative path → bytes), leaving out staging folders.
+/// Every file under `dir` (relative path → bytes), leaving out staging folders and their locks.
 fn snapshot(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
     let mut files = BTreeMap::new();
     let mut stack = vec![dir.to_owned()];
@@ -314,11 +334,22 @@ fn snapshot(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
         for entry in fs::read_dir(&folder).unwrap() {
             let path = entry.unwrap().path();
             let relative = path.strip_prefix(dir).unwrap().to_owned();
-            if relative.to_str().unwrap().starts_with(".stbn-gen-staging-") {
+            if relative.starts_with(".stbn-gen")
+                && relative
+                    .file_name()
+                    .unwrap()
+                    .to_str()
+                    .unwrap()
+                    .starts_with("staging-")
+            {
                 continue;
             }
-            if path.is_dir() {
+            let meta = fs::symlink_metadata(&path).unwrap();
+            if meta.is_dir() {
                 stack.push(path);
+            } else if meta.is_symlink() {
+                let target = fs::read_link(&path).unwrap();
+                files.insert(relative, target.into_os_string().into_encoded_bytes());
             } else {
                 files.insert(relative, fs::read(&path).unwrap());
             }
@@ -327,19 +358,91 @@ fn snapshot(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
     files
 }
 
-/// The staging folders in `out`.
+/// Asserts that two snapshots hold the same files with the same bytes, naming those that differ.
+fn assert_same(
+    after: &BTreeMap<PathBuf, Vec<u8>>,
+    before: &BTreeMap<PathBuf, Vec<u8>>,
+    what: &str,
+) {
+    let differing: Vec<&PathBuf> = before
+        .keys()
+        .chain(after.keys())
+        .filter(|path| before.get(*path) != after.get(*path))
+        .collect();
+    assert!(
+        differing.is_empty(),
+        "{what} changed the previous output: {differing:?}"
+    );
+}
+
+/// The staging folders (and their lock files) in `out`.
 fn staging_folders(out: &Path) -> Vec<PathBuf> {
-    fs::read_dir(out)
-        .unwrap()
+    let Ok(entries) = fs::read_dir(out.join(".stbn-gen")) else {
+        return Vec::new();
+    };
+    entries
         .map(|e| e.unwrap().path())
         .filter(|p| {
             p.file_name()
                 .unwrap()
                 .to_str()
                 .unwrap()
-                .starts_with(".stbn-gen-staging-")
+                .starts_with("staging-")
         })
         .collect()
+}
+
+/// Waits until a staging folder in `out` that is not one of `earlier` holds `path` (the run has
+/// staged it); `earlier` are folders stopped runs left, which hold it too.
+#[cfg(unix)]
+fn wait_until_staged(out: &Path, path: &str, earlier: &[PathBuf]) -> PathBuf {
+    let start = Instant::now();
+    loop {
+        if let Some(staging) = staging_folders(out)
+            .into_iter()
+            .find(|staging| !earlier.contains(staging) && staging.join("out").join(path).exists())
+        {
+            return staging;
+        }
+        assert!(start.elapsed() < MINUTE, "the run never staged {path}");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// A manifest `assets_<seed>.ron` in `dir`: a quick scalar mask `s`, then a Vec2 mask `v` of
+/// `swaps` swaps per pixel (10000 takes far longer than any test waits).
+fn two_masks(dir: &Path, seed: u32, swaps: u32) -> PathBuf {
+    write(
+        &dir.join(format!("assets_{seed}.ron")),
+        &format!(
+            "(masks: [
+                (name: \"s\", kind: Scalar, size: (16, 16, 8), seed: {seed}, encoding: Unorm8),
+                (name: \"v\", kind: Vec2, size: (32, 32, 16), seed: {seed}, \
+                 swaps_per_pixel: {swaps}, assignment_passes: 0, encoding: Unorm8),
+            ])"
+        ),
+    )
+}
+
+/// A manifest `one_<seed>.ron` in `dir` of one small scalar mask `s` (a run takes a moment).
+fn one_mask(dir: &Path, seed: u32) -> PathBuf {
+    write(
+        &dir.join(format!("one_{seed}.ron")),
+        &format!(
+            "(masks: [(name: \"s\", kind: Scalar, size: (8, 8, 4), seed: {seed}, \
+             encoding: Unorm8)])"
+        ),
+    )
+}
+
+/// `generate manifest --out out`, which must succeed.
+fn generate(manifest: &Path, out: &Path) -> Run {
+    let run = run(
+        &["generate".as_ref(), manifest, "--out".as_ref(), out],
+        MINUTE,
+    );
+    assert!(run.status.success(), "{}", run.stderr);
+    run
 }
 
 #[cfg(unix)]
@@ -347,61 +450,356 @@ fn staging_folders(out: &Path) -> Vec<PathBuf> {
 fn an_interrupted_run_leaves_the_previous_output_untouched() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
-    let manifest = |seed: u32, swaps: u32| {
-        write(
-            &dir.path().join(format!("assets_{seed}.ron")),
-            &format!(
-                "(masks: [
-                    (name: \"s\", kind: Scalar, size: (16, 16, 8), seed: {seed}, encoding: Unorm8),
-                    (name: \"v\", kind: Vec2, size: (32, 32, 16), seed: {seed}, \
-                     swaps_per_pixel: {swaps}, assignment_passes: 0, encoding: Unorm8),
-                ])"
-            ),
-        )
-    };
-    let first = manifest(1, 1);
-    let run_ = run(
-        &["generate".as_ref(), &first, "--out".as_ref(), &out],
-        MINUTE,
-    );
-    assert!(run_.status.success(), "{}", run_.stderr);
+    let first = two_masks(dir.path(), 1, 1);
+    generate(&first, &out);
     let before = snapshot(&out);
     assert!(before.contains_key(Path::new("s/s_7.png")), "{before:?}");
     assert!(before.contains_key(Path::new("report.md")));
+    assert!(before.contains_key(Path::new(".stbn-gen/output")));
 
-    // Other slices for `s`, and a `v` that takes far longer than the test waits.
-    let second = manifest(2, 10000);
-    let logs = tempfile::tempdir().unwrap();
-    let child = spawn(
-        &["generate".as_ref(), &second, "--out".as_ref(), &out],
-        logs.path(),
-    );
-    // Interrupt once `s` is complete in the staging folder, while `v` is being optimised.
-    let start = Instant::now();
-    while !staging_folders(&out)
-        .iter()
-        .any(|staging| staging.join("s/s_7.png").exists())
-    {
-        assert!(start.elapsed() < MINUTE, "the second run never wrote `s`");
-        std::thread::sleep(Duration::from_millis(20));
+    // Other slices for `s`, and a `v` that takes far longer than the test waits: stopped once
+    // `s` is complete in the staging folder, while `v` is being optimised.
+    let second = two_masks(dir.path(), 2, 10000);
+    for signal in [libc::SIGINT, libc::SIGTERM, libc::SIGKILL] {
+        let logs = tempfile::tempdir().unwrap();
+        let earlier = staging_folders(&out);
+        let child = spawn(
+            &["generate".as_ref(), &second, "--out".as_ref(), &out],
+            logs.path(),
+        );
+        wait_until_staged(&out, "s/s_7.png", &earlier);
+        std::thread::sleep(Duration::from_millis(200));
+        let pid = libc::pid_t::try_from(child.id()).unwrap();
+        // SAFETY: sends a signal to the child this test started (not yet waited for, so its pid
+        // is not reused); no memory is passed.
+        assert_eq!(unsafe { libc::kill(pid, signal) }, 0);
+        let stopped = wait(child, logs.path(), MINUTE);
+        use std::os::unix::process::ExitStatusExt;
+        assert_eq!(stopped.status.signal(), Some(signal), "{}", stopped.stderr);
+        assert_same(&snapshot(&out), &before, &format!("signal {signal}"));
     }
-    std::thread::sleep(Duration::from_millis(200));
-    let pid = child.id().to_string();
-    let sent = Command::new("kill").args(["-INT", &pid]).status().unwrap();
-    assert!(sent.success());
-    let interrupted = wait(child, logs.path(), MINUTE);
-    assert!(!interrupted.status.success(), "{}", interrupted.stdout);
-    assert_eq!(snapshot(&out), before, "the previous output changed");
 
-    // The next run finishes and clears the folder the interrupted one left.
-    let run = run(
-        &["generate".as_ref(), &first, "--out".as_ref(), &out],
-        MINUTE,
-    );
-    assert!(run.status.success(), "{}", run.stderr);
+    // The next run finishes and clears the folders the stopped ones left.
+    assert!(!staging_folders(&out).is_empty());
+    generate(&first, &out);
     assert_eq!(staging_folders(&out), Vec::<PathBuf>::new());
+    // The same files (report.md holds timings, so not the same bytes).
     assert_eq!(
         snapshot(&out).keys().collect::<Vec<_>>(),
         before.keys().collect::<Vec<_>>()
     );
+}
+
+#[cfg(unix)]
+#[test]
+fn a_run_failing_after_its_first_mask_leaves_the_previous_output_untouched() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    generate(&two_masks(dir.path(), 1, 1), &out);
+    let before = snapshot(&out);
+    // `v`'s folder cannot be created once `s` is staged: an I/O error late in the run.
+    let logs = tempfile::tempdir().unwrap();
+    let child = spawn(
+        &[
+            "generate".as_ref(),
+            &two_masks(dir.path(), 2, 100),
+            "--out".as_ref(),
+            &out,
+        ],
+        logs.path(),
+    );
+    let staging = wait_until_staged(&out, "s/s_7.png", &[]);
+    // Paused while the obstacle is placed, so `v` cannot be written first.
+    let pid = libc::pid_t::try_from(child.id()).unwrap();
+    // SAFETY: signals the child this test started and has not waited for; no memory is passed.
+    assert_eq!(unsafe { libc::kill(pid, libc::SIGSTOP) }, 0);
+    fs::write(staging.join("out/v"), "in the way").unwrap();
+    // SAFETY: as above.
+    assert_eq!(unsafe { libc::kill(pid, libc::SIGCONT) }, 0);
+    let failed = wait(child, logs.path(), MINUTE);
+    assert_fails_with(&failed, &["out/v"]);
+    assert_same(&snapshot(&out), &before, "a failed run");
+    assert_eq!(staging_folders(&out), Vec::<PathBuf>::new());
+}
+
+#[test]
+fn files_stbn_gen_did_not_write_are_never_replaced() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let manifest = one_mask(dir.path(), 1);
+    // Someone's files, where the report and a mask would go, and elsewhere.
+    for (path, text) in [
+        ("csv/sales.csv", "month,sales\n"),
+        ("plots/fig1.png", "a figure"),
+        ("report.md", "# My report\n"),
+        ("s/notes.txt", "notes"),
+        ("data/sales.csv", "month,sales\n"),
+        ("notes.txt", "notes"),
+    ] {
+        fs::create_dir_all(out.join(path).parent().unwrap()).unwrap();
+        fs::write(out.join(path), text).unwrap();
+    }
+    let before = snapshot(&out);
+    let refused = run(
+        &["generate".as_ref(), &manifest, "--out".as_ref(), &out],
+        MINUTE,
+    );
+    assert_fails_with(
+        &refused,
+        &[
+            "4 paths that stbn-gen did not write",
+            "out/csv, ",
+            "out/plots, ",
+            "out/report.md, ",
+            "out/s; ",
+            "nothing was written",
+        ],
+    );
+    assert!(refused.stdout.is_empty(), "{}", refused.stdout);
+    assert_same(&snapshot(&out), &before, "a refused run");
+
+    // Without those in the way, the run writes beside the rest, and a second run replaces its
+    // own output.
+    for path in ["csv", "plots", "s"] {
+        fs::remove_dir_all(out.join(path)).unwrap();
+    }
+    fs::remove_file(out.join("report.md")).unwrap();
+    generate(&manifest, &out);
+    let first = snapshot(&out);
+    for path in ["data/sales.csv", "notes.txt"] {
+        assert_eq!(first[Path::new(path)], before[Path::new(path)], "{path}");
+    }
+    generate(&one_mask(dir.path(), 2), &out);
+    let second = snapshot(&out);
+    assert_ne!(
+        first[Path::new("s/s_0.png")],
+        second[Path::new("s/s_0.png")]
+    );
+    assert_eq!(
+        first.keys().collect::<Vec<_>>(),
+        second.keys().collect::<Vec<_>>()
+    );
+    assert_eq!(
+        second[Path::new("data/sales.csv")],
+        before[Path::new("data/sales.csv")]
+    );
+
+    // A file put into a mask's folder since, and a symlink in place of one: refused, named.
+    fs::write(out.join("s/notes.txt"), "notes").unwrap();
+    let refused = run(
+        &["generate".as_ref(), &manifest, "--out".as_ref(), &out],
+        MINUTE,
+    );
+    assert_fails_with(
+        &refused,
+        &["1 path that stbn-gen did not write", "s/notes.txt"],
+    );
+    #[cfg(unix)]
+    {
+        fs::remove_dir_all(out.join("s")).unwrap();
+        std::os::unix::fs::symlink(out.join("data"), out.join("s")).unwrap();
+        let before = snapshot(&out);
+        let refused = run(
+            &["generate".as_ref(), &manifest, "--out".as_ref(), &out],
+            MINUTE,
+        );
+        assert_fails_with(&refused, &["1 path", "out/s;"]);
+        assert_same(&snapshot(&out), &before, "a refused run");
+    }
+}
+
+#[test]
+fn output_into_the_current_folder_keeps_its_other_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let manifest = one_mask(dir.path(), 1);
+    let work = dir.path().join("work");
+    fs::create_dir(&work).unwrap();
+    fs::write(work.join("Cargo.toml"), "[package]\n").unwrap();
+    for _ in 0..2 {
+        let output = command(&[
+            "generate".as_ref(),
+            &manifest,
+            "--out".as_ref(),
+            ".".as_ref(),
+        ])
+        .current_dir(&work)
+        .output()
+        .unwrap();
+        assert!(output.status.success(), "{output:?}");
+    }
+    assert_eq!(
+        fs::read_to_string(work.join("Cargo.toml")).unwrap(),
+        "[package]\n"
+    );
+    assert!(work.join("s/s_3.png").exists() && work.join("report.md").exists());
+}
+
+#[test]
+fn a_closed_stdout_or_stderr_neither_panics_nor_loses_the_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let manifest = one_mask(dir.path(), 1);
+    let out = dir.path().join("out");
+    // Both pipes closed before the run prints anything, as `| head -1` closes stdout after a
+    // line.
+    let mut child = command(&["generate".as_ref(), &manifest, "--out".as_ref(), &out])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    drop(child.stderr.take());
+    let start = Instant::now();
+    let status = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break status;
+        }
+        assert!(start.elapsed() < MINUTE, "the run did not finish");
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    assert_eq!(status.code(), Some(0));
+    assert!(out.join("s/s_3.png").exists() && out.join("report.md").exists());
+
+    // An error with stderr closed: status 1, not a panic's 101.
+    let mut child = command(&[
+        "generate".as_ref(),
+        &dir.path().join("missing.ron"),
+        "--out".as_ref(),
+        &out,
+    ])
+    .stdout(Stdio::null())
+    .stderr(Stdio::piped())
+    .spawn()
+    .unwrap();
+    drop(child.stderr.take());
+    assert_eq!(child.wait().unwrap().code(), Some(1));
+}
+
+#[test]
+fn a_staging_folder_whose_lock_is_held_is_left_alone() {
+    let dir = tempfile::tempdir().unwrap();
+    let manifest = one_mask(dir.path(), 1);
+    let out = dir.path().join("out");
+    generate(&manifest, &out);
+    // A live run's staging folder, its lock held by this process (another PID namespace looks
+    // the same: a pid that means nothing here), and an abandoned one.
+    let state = out.join(".stbn-gen");
+    let live = state.join("staging-999999999");
+    let lock = fs::File::create(state.join("staging-999999999.lock")).unwrap();
+    lock.lock().unwrap();
+    let dead = state.join("staging-abandoned");
+    fs::File::create(state.join("staging-abandoned.lock")).unwrap();
+    for folder in [&live, &dead] {
+        fs::create_dir_all(folder.join("out/s")).unwrap();
+        fs::write(folder.join("out/s/s_0.png"), "staged").unwrap();
+    }
+    generate(&manifest, &out);
+    assert!(live.join("out/s/s_0.png").exists());
+    assert!(!dead.exists());
+    assert!(!state.join("staging-abandoned.lock").exists());
+    drop(lock);
+    generate(&manifest, &out);
+    assert_eq!(staging_folders(&out), Vec::<PathBuf>::new());
+}
+
+#[test]
+fn an_out_that_is_a_file_is_refused_by_every_command() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = write(&dir.path().join("file"), "mine");
+    let manifest = two_masks(dir.path(), 1, 10000);
+    let slices = dir.path().join("slices");
+    fs::create_dir(&slices).unwrap();
+    let start = Instant::now();
+    for args in [
+        vec![
+            "generate".as_ref(),
+            manifest.as_path(),
+            "--out".as_ref(),
+            &file,
+        ],
+        vec!["analyze".as_ref(), &slices, "--out".as_ref(), &file],
+        vec!["tradeoff".as_ref(), "--out".as_ref(), &file],
+    ] {
+        let run = run(&args, MINUTE);
+        assert_fails_with(&run, &["the output folder", "file is a file, not a folder"]);
+    }
+    assert!(
+        start.elapsed() < Duration::from_secs(20),
+        "{:?}",
+        start.elapsed()
+    );
+    assert_eq!(fs::read_to_string(&file).unwrap(), "mine");
+}
+
+#[test]
+fn tradeoff_checks_its_output_folder_before_any_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    fs::create_dir(&out).unwrap();
+    fs::write(out.join("threads.csv"), "mine").unwrap();
+    fs::write(out.join("notes.txt"), "mine").unwrap();
+    let start = Instant::now();
+    let refused = run(&["tradeoff".as_ref(), "--out".as_ref(), &out], MINUTE);
+    assert_fails_with(&refused, &["threads.csv", "did not write"]);
+    assert!(refused.stdout.is_empty(), "{}", refused.stdout);
+    assert!(
+        start.elapsed() < Duration::from_secs(20),
+        "{:?}",
+        start.elapsed()
+    );
+
+    fs::remove_file(out.join("threads.csv")).unwrap();
+    let args: [&Path; 6] = [
+        "tradeoff".as_ref(),
+        "--quick".as_ref(),
+        "--only".as_ref(),
+        "threads".as_ref(),
+        "--out".as_ref(),
+        &out,
+    ];
+    for _ in 0..2 {
+        let done = run(&args, MINUTE);
+        assert!(done.status.success(), "{}", done.stderr);
+    }
+    assert_eq!(fs::read_to_string(out.join("notes.txt")).unwrap(), "mine");
+    for file in ["threads.csv", "threads.md", "tradeoff.md"] {
+        assert!(out.join(file).exists(), "{file}");
+    }
+    assert_eq!(staging_folders(&out), Vec::<PathBuf>::new());
+}
+
+/// Writes 4×4 8-bit slices `<name>_<z>.png` for each `z` of `frames` into `dir`.
+fn slices(dir: &Path, name: &str, frames: std::ops::Range<usize>) {
+    fs::create_dir_all(dir).unwrap();
+    for z in frames {
+        let file = fs::File::create(dir.join(format!("{name}_{z}.png"))).unwrap();
+        let mut encoder = png::Encoder::new(file, 4, 4);
+        encoder.set_color(png::ColorType::Grayscale);
+        let mut writer = encoder.write_header().unwrap();
+        let data: Vec<u8> = (0..16).map(|i| ((i * 16 + z * 5) % 256) as u8).collect();
+        writer.write_image_data(&data).unwrap();
+        writer.finish().unwrap();
+    }
+}
+
+#[test]
+fn analyze_refuses_slices_not_starting_at_zero_and_names_too_long_for_its_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let late = dir.path().join("late");
+    slices(&late, "s", 5..9);
+    let run_ = run(&["analyze".as_ref(), &late, "--out".as_ref(), &out], MINUTE);
+    assert_fails_with(&run_, &["late: slices 0–4 are missing", "s_5.png"]);
+    assert!(!out.exists());
+
+    // `dft/00_<name>_xy.png`: 245 characters fit 255 bytes, 249 do not.
+    let long = dir.path().join("long");
+    slices(&long, &"n".repeat(249), 0..2);
+    let run_ = run(&["analyze".as_ref(), &long, "--out".as_ref(), &out], MINUTE);
+    assert_fails_with(&run_, &["is 249 characters long", "at most 245"]);
+    assert!(!out.exists());
+    let fits = dir.path().join("fits");
+    slices(&fits, &"n".repeat(245), 0..2);
+    let run_ = run(&["analyze".as_ref(), &fits, "--out".as_ref(), &out], MINUTE);
+    assert!(run_.status.success(), "{}", run_.stderr);
+    assert!(out.join("report.md").exists());
 }

@@ -303,7 +303,7 @@ mod tests {
         if let Some(added) = added {
             assert!(added >= 60 << 20, "{added}");
         } else {
-            eprintln!("no /proc/self/clear_refs: peak memory untested");
+            errln!("no /proc/self/clear_refs: peak memory untested");
         }
     }
 

@@ -61,7 +61,7 @@ pub fn size(plan: &Plan) -> Result<Section> {
             let seconds = m.timing.median();
             let ns = seconds * 1e9 / pixels as f64;
             let name = size_name((side, side, depth));
-            println!("  {name}: {seconds:.3} s");
+            outln!("  {name}: {seconds:.3} s");
             let mut row = vec![
                 Cell::text(name.clone()),
                 Cell::int(pixels),
@@ -182,9 +182,10 @@ pub fn kernel(plan: &Plan) -> Result<Section> {
         let taps = spec.kernel_taps();
         let m = measure(plan, &spec)?;
         let seconds = m.timing.median();
-        println!(
+        outln!(
             "  σ {} tolerance {}: {taps} taps, {seconds:.3} s",
-            spec.sigma_xy, spec.kernel_tolerance
+            spec.sigma_xy,
+            spec.kernel_tolerance
         );
         let mut row = vec![
             Cell::text(sweep),

@@ -263,7 +263,7 @@ fn push(
     let seconds = timing.median();
     let met = target.map(|t| seconds <= t);
     let after = load_average();
-    println!("  {name}: {seconds:.2} s");
+    outln!("  {name}: {seconds:.2} s");
     findings.push(format!(
         "{name}: {seconds:.2} s{}; peak memory {} (estimate {:.1} MB); load {before} → {after}.",
         match (target, met) {

@@ -275,9 +275,10 @@ pub fn encoding(plan: &Plan) -> Result<Section> {
                     ));
                 }
             }
-            println!(
+            outln!(
                 "  {name}, {layout_name}: largest MC RMSE change {:+.2}% ({:?})",
-                largest_change.0, largest_change.1
+                largest_change.0,
+                largest_change.1
             );
             series.push(points);
         }

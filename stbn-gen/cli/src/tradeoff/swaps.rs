@@ -133,7 +133,7 @@ pub fn run(plan: &Plan) -> Result<Section> {
         let (trace, stamps) = made?;
         let energies: Vec<f64> = trace.points.iter().map(|p| p.energy).collect();
         let (initial, last) = (energies[0], energies[energies.len() - 1]);
-        println!(
+        outln!(
             "  {name}: {} swaps per pixel in {long_seconds:.2} s",
             plan.longest_budget
         );
@@ -162,7 +162,7 @@ pub fn run(plan: &Plan) -> Result<Section> {
             }
             let end = trace.points.last().expect("a trace has its initial point");
             let seconds = timing.median();
-            println!("  {name}: {budget} swaps per pixel in {seconds:.3} s");
+            outln!("  {name}: {budget} swaps per pixel in {seconds:.3} s");
             let same = (budget.fract() == 0.0 && (budget as usize) < energies.len())
                 .then(|| energies[budget as usize].to_bits() == end.energy.to_bits());
             if budget == 0.0 {
@@ -386,7 +386,7 @@ fn assignment_rows(
         }
         let end = trace.points.last().expect("a trace has its initial point");
         let seconds = timing.median();
-        println!(
+        outln!(
             "  {name}: {swaps} swaps per pixel and {passes} assignment passes in {seconds:.3} s"
         );
         let same = energies
