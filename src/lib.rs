@@ -36,6 +36,9 @@
 //! # let _ = direction;
 //! ```
 #![no_std]
+// The README's snippets are doctests of this crate: what a user pastes must compile without a
+// warning.
+#![doc(test(attr(deny(warnings))))]
 
 /// The masks declared in `assets.ron`, one `pub static` per entry (the entry's name in upper
 /// case), each documented with its kind, size, seed, σ, encoding and compression.

@@ -74,8 +74,8 @@ pub enum Error {
         /// What the value must satisfy.
         reason: &'static str,
     },
-    /// The allocator refused the buffer for the decoded payload
-    /// ([`PackedStbn::decode`](crate::PackedStbn::decode)).
+    /// The allocator refused the buffer for the decoded payload (`PackedStbn::decode`, feature
+    /// `alloc`).
     OutOfMemory {
         /// Bytes requested: the header's decoded length.
         bytes: usize,

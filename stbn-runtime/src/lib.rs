@@ -99,8 +99,12 @@
 //!
 //! # Features
 //! * `alloc` (off by default): `PackedStbn::decode` and `OwnedStbn`.
-//! * `wgpu` (off by default, implies `alloc` and uses `std`): the `gpu` module, which
-//!   uploads masks as wgpu textures and ships the WGSL sampling snippet `gpu::WGSL`.
+//! * `wgpu` (off by default, implies `alloc` and uses `std`): the
+#![cfg_attr(feature = "wgpu", doc = "   [`gpu`] module,")]
+#![cfg_attr(not(feature = "wgpu"), doc = "   `gpu` module,")]
+//!   which uploads masks as wgpu textures (`create_texture_3d`, `create_texture_2d_array`) and
+//!   ships the WGSL sampling snippet `gpu::WGSL`. These docs show it when built with the feature,
+//!   as docs.rs builds them (`cargo doc --features wgpu` locally).
 //!
 //! # Example
 //! ```
@@ -183,6 +187,8 @@
 //! # Ok::<(), stbn_runtime::Error>(())
 //! ```
 #![no_std]
+// docs.rs (`--cfg docsrs`, nightly): every feature-gated item shows the feature it needs.
+#![cfg_attr(docsrs, feature(doc_cfg))]
 // `unsafe` only behind `#[allow(unsafe_code)]`, each with a measured reason: the square-root
 // instructions (`sqrt.rs`), and the AVX2 build of the vector fills (its detection in `wide.rs`,
 // its calls in `vector.rs`).
