@@ -451,10 +451,14 @@ pub fn compression(plan: &Plan) -> Result<Section> {
         method: format!(
             "Blobs from `stbn_build_support::encode` (Lz4: LZ4 block format; Deflate: raw \
              RFC 1951 at level 9). **Embedded bytes** is the whole blob (64-byte header + \
-             payload): what `include_bytes!` adds to the binary for this mask. **Encode** is \
+             payload): what `include_bytes!` adds to the binary for this mask; a codec that \
+             does not shrink the payload is dropped by the encoder, so its blob is the None \
+             one. **Encode** is \
              quantisation plus compression, paid once at build time (single run). **Verify** is \
-             `PackedStbn::from_bytes` (header and payload CRC-32), **decode** \
-             `PackedStbn::from_bytes_unverified` + `decode_into` a caller buffer (what the \
+             `PackedStbn::from_bytes` (header, payload CRC-32 and, uncompressed, every stored \
+             value), **decode** \
+             `PackedStbn::from_bytes_unverified` + `decode_into` a caller buffer, which checks \
+             the decoded values (what the \
              embedded statics pay at start-up; uncompressed masks need no decode at all and are \
              sampled in place, the None row is a plain copy), medians of at least 5 runs and \
              {decode_total} s; every decode is checked against the uncompressed payload. Vector masks: {} \
