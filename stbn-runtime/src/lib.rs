@@ -109,81 +109,40 @@
 //! # Example
 //! ```
 //! use stbn_runtime::glam::Vec3;
-//! use stbn_runtime::{Compression, Encoding, MaskHeader, SampleOffset, Space, Stbn, ValueMap};
+//! use stbn_runtime::{SampleOffset, Stbn, include_stbn};
 //!
-//! // Real code embeds a file written by the generator (see above). Here the same kind of
-//! // blob, a 4×2×2 one-channel Unorm8 mask, is built in const.
-//! const HEADER: MaskHeader = MaskHeader {
-//!     width: 4,
-//!     height: 2,
-//!     depth: 2,
-//!     channels: 1,
-//!     encoding: Encoding::Unorm8,
-//!     compression: Compression::None,
-//!     value_map: ValueMap::Unit,
-//!     space: Space::Scalar,
-//!     payload_len: 16,
-//!     payload_crc32: 0xF15F_BCF8,
-//!     pdf_min: 0.0,
-//!     pdf_max: 0.0,
-//! };
-//! const fn blob() -> [u8; 80] {
-//!     let header = HEADER.to_bytes();
-//!     let mut out = [0u8; 80];
-//!     let mut i = 0;
-//!     while i < out.len() {
-//!         out[i] = if i < 64 { header[i] } else { ((i - 64) * 37 % 256) as u8 };
-//!         i += 1;
-//!     }
-//!     out
-//! }
-//! static BYTES: [u8; 80] = blob();
+//! // Blobs written by `stbn-gen generate … --format stbn` (or embedded by build.rs): a 16×16×8
+//! // scalar mask and an 8×8×4 mask of cosine-weighted hemisphere directions, from this crate's
+//! // tests/data. The header and length are checked at compile time.
+//! static MASK: Stbn<'static> = include_stbn!("../tests/data/scalar_16.stbn");
+//! static DIRECTIONS: Stbn<'static> = include_stbn!("../tests/data/cosine_8.stbn");
 //!
-//! // Header and length are validated at compile time: a bad blob fails the build.
-//! static MASK: Stbn<'static> = match Stbn::from_bytes_unverified(&BYTES) {
-//!     Ok(mask) => mask,
-//!     Err(_) => panic!("embedded mask is invalid"),
-//! };
-//!
-//! // Check the payload CRC once, e.g. in a unit test or at start-up.
-//! assert!(Stbn::from_bytes(&BYTES).is_ok());
+//! // Check the payload CRC and every stored value once, e.g. in a unit test or at start-up.
+//! MASK.verify()?;
+//! DIRECTIONS.verify()?;
 //!
 //! // Point sampling wraps on all axes.
-//! let v = MASK.sample(5, -1, 3);
-//! assert_eq!(v, MASK.sample(1, 1, 1));
+//! let v = MASK.sample(21, -1, 11);
+//! assert_eq!(v, MASK.sample(5, 15, 3));
 //! assert!((0.0..1.0).contains(&v));
 //!
 //! // Offset views: a decorrelated value for sample dimension 1, and a start-frame offset.
 //! let _second_dimension = MASK.dimension(1).sample(5, -1, 3);
 //! let late_start = MASK.offset(SampleOffset { x: 0, y: 0, frame: 1 });
-//! assert_eq!(late_start.sample(5, -1, 3), MASK.sample(1, 1, 0));
+//! assert_eq!(late_start.sample(5, -1, 3), MASK.sample(5, 15, 4));
 //!
 //! // A whole frame at once, row-major.
-//! let mut frame = [0.0f32; 8];
-//! assert_eq!(MASK.fill_frame(0, &mut frame), 8);
-//! assert_eq!(frame[4 + 1], MASK.sample(1, 1, 0));
-//!
-//! // A vector mask: cosine-weighted hemisphere directions stored octahedrally in two
-//! // channels (built at run time here; the generator writes real ones).
-//! let header = MaskHeader::new(4, 2, 2, 2, Encoding::Unorm8).with_space(
-//!     Space::CosineHemisphere,
-//!     ValueMap::Octahedral,
-//!     0.0,
-//!     0.0,
-//! );
-//! // Octahedral coordinates in [-0.5, 0.5]², all above the horizon (others would be refused).
-//! let payload: Vec<u8> = (0..32).map(|i| (64 + i * 53 % 128) as u8).collect();
-//! let mut bytes = header.with_payload(Compression::None, &payload).to_bytes().to_vec();
-//! bytes.extend_from_slice(&payload);
-//! let directions = Stbn::from_bytes(&bytes)?;
+//! let mut frame = [0.0f32; 16 * 16];
+//! assert_eq!(MASK.fill_frame(0, &mut frame), 256);
+//! assert_eq!(frame[16 + 1], MASK.sample(1, 1, 0));
 //!
 //! // The direction of sample dimension 2, shifted 3 voxels along x, with its pdf.
-//! let view = directions.dimension(2).offset(SampleOffset { x: 3, y: 0, frame: 0 });
+//! let view = DIRECTIONS.dimension(2).offset(SampleOffset { x: 3, y: 0, frame: 0 });
 //! let d: Vec3 = view.sample_vec3(1, 1, 0);
-//! assert!((d.length() - 1.0).abs() < 1e-6);
+//! assert!((d.length() - 1.0).abs() < 1e-6 && d.z >= 0.0);
 //! let ray = view.sample_vector(1, 1, 0);
 //! assert_eq!(ray.value.truncate(), d);
-//! assert_eq!(ray.pdf, d.z.max(0.0) / core::f32::consts::PI);
+//! assert_eq!(ray.pdf, d.z / core::f32::consts::PI);
 //! # Ok::<(), stbn_runtime::Error>(())
 //! ```
 #![no_std]

@@ -369,30 +369,35 @@ fn stbn_blobs_are_the_bytes_build_support_embeds() {
     assert!(report.contains("`.stbn` blobs `<name>.stbn`"), "{report}");
 }
 
-/// The blob stbn-runtime's doctests and tests embed with `include_stbn!`: regenerating it from
+/// The blobs stbn-runtime's doctests and tests embed with `include_stbn!`: regenerating each from
 /// its manifest must give the committed bytes, or the committed file has gone stale.
 #[test]
-fn the_runtime_test_blob_is_what_generate_writes_for_its_manifest() {
+fn the_runtime_test_blobs_are_what_generate_writes_for_their_manifests() {
     let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../stbn-runtime/tests/data");
-    let dir = tempfile::tempdir().unwrap();
-    let output = stbn_gen(&[
-        "generate".as_ref(),
-        &data.join("scalar_16.ron"),
-        "--out".as_ref(),
-        dir.path(),
-        "--format".as_ref(),
-        "stbn".as_ref(),
-    ]);
-    assert!(output.status.success(), "{}", text(&output.stderr));
-    let committed = fs::read(data.join("scalar_16.stbn")).unwrap();
-    assert_eq!(
-        fs::read(dir.path().join("scalar_16.stbn")).unwrap(),
-        committed,
-        "regenerate stbn-runtime/tests/data/scalar_16.stbn (and truncated.stbn, its first 100 \
-         bytes) with `stbn-gen generate stbn-runtime/tests/data/scalar_16.ron --format stbn`"
-    );
-    let truncated = fs::read(data.join("truncated.stbn")).unwrap();
-    assert_eq!(truncated, committed[..100]);
+    for name in ["scalar_16", "cosine_8"] {
+        let dir = tempfile::tempdir().unwrap();
+        let output = stbn_gen(&[
+            "generate".as_ref(),
+            &data.join(format!("{name}.ron")),
+            "--out".as_ref(),
+            dir.path(),
+            "--format".as_ref(),
+            "stbn".as_ref(),
+        ]);
+        assert!(output.status.success(), "{}", text(&output.stderr));
+        let committed = fs::read(data.join(format!("{name}.stbn"))).unwrap();
+        assert_eq!(
+            fs::read(dir.path().join(format!("{name}.stbn"))).unwrap(),
+            committed,
+            "regenerate stbn-runtime/tests/data/{name}.stbn with `stbn-gen generate \
+             stbn-runtime/tests/data/{name}.ron --format stbn` (and, for scalar_16, \
+             truncated.stbn: its first 100 bytes)"
+        );
+        if name == "scalar_16" {
+            let truncated = fs::read(data.join("truncated.stbn")).unwrap();
+            assert_eq!(truncated, committed[..100]);
+        }
+    }
 }
 
 #[test]
