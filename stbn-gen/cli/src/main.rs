@@ -3,6 +3,7 @@
 //! either.
 
 mod analyze;
+mod cache;
 mod generate;
 mod ktx2;
 mod output;
@@ -93,6 +94,10 @@ enum Command {
         #[arg(long, value_enum, value_delimiter = ',')]
         only: Vec<tradeoff::Knob>,
     },
+    /// Show the build-script blob cache (entries by last use, sizes, orphaned temporary files)
+    /// and prune it: `--prune-to SIZE` removes the least recently used entries, `--older-than
+    /// DAYS` those unused that long; `--keep MANIFEST` protects a manifest's entries.
+    Cache(cache::Args),
 }
 
 /// `--swaps-per-pixel`: a finite number in the range both swap optimisers accept.
@@ -119,6 +124,7 @@ fn main() -> ExitCode {
             baselines,
         } => analyze::run(&dirs, &out, baselines),
         Command::Tradeoff { out, quick, only } => tradeoff::run(&out, quick, &only),
+        Command::Cache(args) => cache::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
