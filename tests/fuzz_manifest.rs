@@ -3,7 +3,7 @@
 //! and RON tokens inserted, deleted, duplicated and swapped), each parsed with
 //! `Manifest::parse`. Every input must return without panicking, and every error must point
 //! inside the text it was given (1-based line and column), name the file and stay short however
-//! long the input it quotes (runs of hundreds of characters are among the mutations).
+//! long the input it quotes (runs past the 64 characters a message quotes are among the mutations).
 //!
 //! `STBN_FUZZ_ITERATIONS` raises the default 20,000 mutations for a longer local run.
 
@@ -103,8 +103,8 @@ fn mutate(text: &str, rng: &mut Rng) -> String {
         let at = rng.below(chars.len() + 1);
         match rng.below(6) {
             5 => {
-                // A long run: a name, number, string or field of hundreds of characters.
-                let run = ["n", "9", "\"x", "x: "][rng.below(4)].repeat(100 + rng.below(400));
+                // A long run: a name, number, string or fields past the 64 characters a message quotes.
+                let run = ["n", "9", "\"x", "x: "][rng.below(4)].repeat(65 + rng.below(100));
                 chars.splice(at..at, run.chars());
             }
             0 => {
