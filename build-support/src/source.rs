@@ -197,8 +197,8 @@ enum Kind {
     /// A string literal: the range of its content when it has no escapes (or is raw), else
     /// `None`.
     Str(Option<(usize, usize)>),
-    /// Anything else: numbers, chars, `#`, `!`, unknown characters. A run of characters that
-    /// can continue a number (`-1.5e-3`, `0x1F`, sixteen million digits) is one token.
+    /// Anything else: numbers, chars, `#`, `!`, unknown characters. A number (`-1.5e-3`,
+    /// sixteen million digits) is one token.
     Other,
 }
 
@@ -343,14 +343,16 @@ impl Cursor<'_> {
         (start, self.pos.offset)
     }
 
-    /// Skips the rest of a number-like run: digits, letters, `_`, `.`, and a sign after an
-    /// exponent's `e`.
+    /// Skips the rest of a number: digits, `_`, `.`, an exponent's `e` after a digit and its
+    /// sign. A letter ends it (a suffix or a key written without a comma after the value is an
+    /// identifier of its own).
     fn number_tail(&mut self, first: char) {
         let mut previous = first;
         while let Some(c) = self.peek() {
-            let continues = c.is_ascii_alphanumeric()
+            let continues = c.is_ascii_digit()
                 || c == '_'
                 || c == '.'
+                || (matches!(c, 'e' | 'E') && previous.is_ascii_digit())
                 || (matches!(c, '+' | '-') && matches!(previous, 'e' | 'E'));
             if !continues {
                 return;
@@ -791,6 +793,59 @@ mod tests {
         assert_eq!((pos.line, pos.col), (3, 5));
         assert_eq!(&text[pos.offset..], "1)");
         assert_eq!(map.next_token(text, text.len()).offset, text.len());
+    }
+
+    #[test]
+    fn numbers_are_one_token_and_a_key_after_one_is_still_found() {
+        let text = "(masks: [(seed: -1kind: Scalar, sigma: 1.5e-3, size: (1_000, 0x1F, 2))])";
+        let map = SourceMap::scan(text);
+        let names: Vec<_> = map.masks[0]
+            .fields
+            .iter()
+            .map(|f| f.name.as_str())
+            .collect();
+        assert_eq!(names, ["seed", "kind", "sigma", "size"]);
+        let sigma = map.masks[0].field("sigma").unwrap();
+        assert_eq!(&text[sigma.value.offset..sigma.value_end.offset], "1.5e-3");
+        let mut lexer = Lexer::new("-12345678901234567890.5e+3,");
+        assert_eq!(lexer.next().unwrap().end.offset, 26);
+        assert_eq!(lexer.next().unwrap().kind, Kind::Comma);
+        assert!(lexer.next().is_none());
+    }
+
+    #[test]
+    fn what_the_scan_records_is_bounded() {
+        let many = format!("(masks: [{}])", "(),".repeat(MAX_MASKS_SCANNED + 500));
+        let map = SourceMap::scan(&many);
+        assert_eq!(map.masks.len(), MAX_MASKS_SCANNED);
+        assert_eq!(map.list_start.map(|p| p.col), Some(9));
+        let fields: String = (0..MAX_FIELDS_SCANNED + 10)
+            .map(|i| format!("f{i}: {i}, "))
+            .collect();
+        let wide = format!("(masks: [({fields}), (name: \"b\")])");
+        let map = SourceMap::scan(&wide);
+        assert_eq!(map.masks[0].fields.len(), MAX_FIELDS_SCANNED);
+        assert_eq!(map.masks[1].name.as_deref(), Some("b"));
+        // Only the two tokens around the cursor are kept, however long the text.
+        let mut parser = Parser::new(&many);
+        parser.manifest();
+        assert!(parser.window.len() <= 3, "{}", parser.window.len());
+    }
+
+    #[test]
+    fn the_innermost_open_bracket_is_found() {
+        let unclosed = |text: &str| SourceMap::unclosed(text).map(|u| (u.bracket, u.pos.col));
+        assert_eq!(unclosed("(masks: ["), Some(('[', 9)));
+        assert_eq!(
+            unclosed("(masks: [(a: (1, 2), b: \"(\" // (\n"),
+            Some(('(', 10))
+        );
+        assert_eq!(unclosed("(masks: [])"), None);
+        assert_eq!(unclosed(""), None);
+        // Deeper than the places kept: no claim about which one.
+        let deep = "(".repeat(MAX_OPEN_TRACKED + 1);
+        assert_eq!(unclosed(&deep), None);
+        assert_eq!(unclosed(&format!("{deep})")), Some(('(', MAX_OPEN_TRACKED)));
     }
 
     #[test]
