@@ -562,6 +562,9 @@ fn entries_are_listed_by_last_use_and_pruned_keeping_the_manifest() {
     let foreign = cache_dir.join(format!("{}.stbn", "0".repeat(64)));
     std::fs::write(&foreign, b"not a blob").unwrap();
     std::fs::write(cache_dir.join("notes.stbn"), b"STBN notes").unwrap();
+    // An entry copied under another key's name: its key record names the original key.
+    let copied = cache_dir.join(format!("{}.stbn", "f".repeat(64)));
+    std::fs::copy(&paths[0], &copied).unwrap();
 
     let entries = cache.entries().unwrap();
     let listed: Vec<&PathBuf> = entries.iter().map(|e| &e.path).collect();
@@ -602,7 +605,7 @@ fn entries_are_listed_by_last_use_and_pruned_keeping_the_manifest() {
     let kept: Vec<&PathBuf> = pruned.kept.iter().map(|e| &e.path).collect();
     assert_eq!(kept, [&paths[0]]);
     assert!(paths[0].exists() && !paths[1].exists() && !paths[2].exists());
-    assert!(foreign.exists() && cache_dir.join("notes.stbn").exists());
+    assert!(foreign.exists() && cache_dir.join("notes.stbn").exists() && copied.exists());
 
     // A size the entries already fit removes nothing; a hit refreshes the last use.
     let pruned = cache

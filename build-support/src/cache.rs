@@ -27,7 +27,8 @@
 //!   [`Cache::entries`] lists entries with their size and last use, and [`Cache::prune`] removes
 //!   the least recently used ones down to a size, or those unused for a while, keeping the
 //!   entries of given keys ([`manifest_keys`]: those of the current manifest). Only files named
-//!   `<64 hex digits>.stbn` that start like a `.stbn` blob count as entries.
+//!   `<64 hex digits>.stbn` that start like a `.stbn` blob and end with the key record of their
+//!   name count as entries.
 //! * Reads take only a regular file (a FIFO or device is refused without reading it) no larger
 //!   than a valid entry of the recipe can be, checked before reading, in one read.
 //! * Reads are verified: the blob ([`PackedStbn::from_bytes`] plus a header comparison with the
@@ -400,8 +401,9 @@ impl Cache {
     }
 
     /// The entries of the directory, least recently used first (ties by key). Only regular
-    /// files named `<64 hex digits>.stbn` that start with the `.stbn` magic count; anything else
-    /// in the directory is not listed. A directory that does not exist holds none.
+    /// files named `<64 hex digits>.stbn` that start with the `.stbn` magic and end with the key
+    /// record of that key count: anything else in the directory is neither listed nor pruned. A
+    /// directory that does not exist holds none.
     ///
     /// # Errors
     /// Only if the directory cannot be listed.
@@ -421,7 +423,7 @@ impl Cache {
             let Ok(meta) = std::fs::symlink_metadata(&path) else {
                 continue;
             };
-            if !meta.file_type().is_file() || !starts_like_a_blob(&path) {
+            if !meta.file_type().is_file() || !written_for(&path, key) {
                 continue;
             }
             entries.push(CacheEntry {
@@ -488,12 +490,24 @@ fn unlocked(path: &Path) -> bool {
     file.try_lock().is_ok()
 }
 
-/// Whether the file at `path` starts with the `.stbn` magic, as every entry does.
-fn starts_like_a_blob(path: &Path) -> bool {
-    let mut magic = [0u8; 4];
-    File::open(path)
-        .and_then(|mut f| f.read_exact(&mut magic))
-        .is_ok_and(|()| &magic == b"STBN")
+/// Whether the file at `path` is an entry this cache wrote for `key` (64 hex digits): it starts
+/// with the `.stbn` magic and ends with the key record naming `key`.
+fn written_for(path: &Path, key: &str) -> bool {
+    use std::io::{Seek as _, SeekFrom};
+
+    let check = || -> io::Result<bool> {
+        let mut file = File::open(path)?;
+        let mut magic = [0u8; 4];
+        file.read_exact(&mut magic)?;
+        file.seek(SeekFrom::End(-(KEY_RECORD_LEN as i64)))?;
+        let mut record = [0u8; KEY_RECORD_LEN];
+        file.read_exact(&mut record)?;
+        let (record_magic, recorded) = record.split_at(KEY_RECORD_MAGIC.len());
+        Ok(&magic == b"STBN"
+            && record_magic == KEY_RECORD_MAGIC
+            && blake3::Hash::from_slice(recorded).is_ok_and(|h| h.to_hex().as_str() == key))
+    };
+    check().unwrap_or(false)
 }
 
 /// The most bytes a valid entry of `recipe` stored with `encoding` can have: the 64-byte header,

@@ -5,8 +5,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::time::{Duration, SystemTime};
 
-use stbn_build_support::Manifest;
 use stbn_build_support::cache::manifest_keys;
+use stbn_build_support::{CacheKey, Manifest};
 
 const DAY: Duration = Duration::from_secs(86_400);
 
@@ -31,13 +31,14 @@ fn stdout(output: &Output) -> String {
     String::from_utf8(output.stdout.clone()).unwrap()
 }
 
-/// Writes a file that looks like a cache entry (the `.stbn` magic, `bytes` long) last used
-/// `ago` before now.
-fn entry(dir: &Path, key: &str, bytes: usize, ago: Duration) -> PathBuf {
-    let path = dir.join(format!("{key}.stbn"));
-    let mut content = b"STBN".to_vec();
-    content.resize(bytes, 0);
-    fs::write(&path, content).unwrap();
+/// Writes an entry for `key`, `bytes` long in all (a stand-in blob and the key record), last
+/// used `ago` before now.
+fn entry(dir: &Path, key: &CacheKey, bytes: usize, ago: Duration) -> PathBuf {
+    let path = dir.join(format!("{}.stbn", key.to_hex()));
+    let mut blob = b"STBN".to_vec();
+    blob.resize(bytes - 48, 0);
+    fs::write(&path, key.entry_bytes(&blob)).unwrap();
+    assert_eq!(fs::metadata(&path).unwrap().len(), bytes as u64);
     set_age(&path, ago);
     path
 }
@@ -56,17 +57,22 @@ fn lists_prunes_by_size_and_age_and_keeps_a_manifest() {
     let root = tempfile::tempdir().unwrap();
     let dir = root.path().join("cache");
     fs::create_dir(&dir).unwrap();
+    let mask = |seed: u32| {
+        format!("(name: \"m{seed}\", kind: White, size: (4, 4, 2), seed: {seed}, encoding: Unorm8)")
+    };
     let manifest = root.path().join("assets.ron");
-    fs::write(
-        &manifest,
-        "(masks: [(name: \"a\", kind: White, size: (4, 4, 2), seed: 1, encoding: Unorm8)])",
-    )
-    .unwrap();
-    let kept_key = manifest_keys(&Manifest::load(&manifest).unwrap())[0].to_hex();
-    let (k1, k2) = ("1".repeat(64), "2".repeat(64));
-    let oldest = entry(&dir, &kept_key, 3072, DAY * 5);
-    let old = entry(&dir, &k1, 2048, DAY * 3);
-    let recent = entry(&dir, &k2, 1024, DAY / 2);
+    fs::write(&manifest, format!("(masks: [{}])", mask(1))).unwrap();
+    let others = root.path().join("others.ron");
+    fs::write(&others, format!("(masks: [{}, {}])", mask(2), mask(3))).unwrap();
+    let keys = |path: &Path| manifest_keys(&Manifest::load(path).unwrap());
+    let (kept, other) = (keys(&manifest), keys(&others));
+    let oldest = entry(&dir, &kept[0], 3072, DAY * 5);
+    let old = entry(&dir, &other[0], 2048, DAY * 3);
+    let recent = entry(&dir, &other[1], 1024, DAY / 2);
+    let (kept_key, k1, k2) = (kept[0].to_hex(), other[0].to_hex(), other[1].to_hex());
+    // A blob under an entry's name whose key record names another key: not the cache's.
+    let copied = dir.join(format!("{}.stbn", "f".repeat(64)));
+    fs::copy(&old, &copied).unwrap();
     // A killed writer's temporary file, and a file that is not the cache's.
     let orphan = dir.join(".tmp-Zz99Yy.part");
     fs::write(&orphan, [0u8; 100]).unwrap();
@@ -147,7 +153,7 @@ fn lists_prunes_by_size_and_age_and_keeps_a_manifest() {
         pruned.ends_with(&format!("{d} holds 1 entry, 1.0 KiB\n")),
         "{pruned}"
     );
-    assert!(!oldest.exists() && recent.exists() && notes.exists());
+    assert!(!oldest.exists() && recent.exists() && notes.exists() && copied.exists());
 }
 
 #[test]
