@@ -106,6 +106,15 @@ pub(crate) fn run(args: &Args) -> crate::Result<()> {
                 if pruned.kept.len() == 1 { "y" } else { "ies" },
                 size(kept_bytes)
             )?;
+            if let PruneRule::ToSize(limit) = rule
+                && kept_bytes > limit
+            {
+                writeln!(
+                    out,
+                    "the entries of the --keep manifests take more than {} on their own",
+                    size(limit)
+                )?;
+            }
             if let Some((path, e)) = pruned.failures.first() {
                 print(&out)?;
                 return Err(format!(

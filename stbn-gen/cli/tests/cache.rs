@@ -98,7 +98,8 @@ fn lists_prunes_by_size_and_age_and_keeps_a_manifest() {
         )
     );
 
-    // A dry run says what would go and removes nothing.
+    // A dry run says what would go and removes nothing; kept entries stay even when they alone
+    // exceed the size, and the output says so.
     let dry = stdout(&cache_command(
         root.path(),
         &[
@@ -118,7 +119,8 @@ fn lists_prunes_by_size_and_age_and_keeps_a_manifest() {
              would remove {k2} (1.0 KiB, last used 12.0 h ago)\n\
              would remove 2 entries, 3.0 KiB\n\
              would remove 1 orphaned temporary file(s), 100 B\n\
-             {d} would hold 1 entry, 3.0 KiB\n"
+             {d} would hold 1 entry, 3.0 KiB\n\
+             the entries of the --keep manifests take more than 1.0 KiB on their own\n"
         )
     );
     assert!(oldest.exists() && old.exists() && recent.exists() && orphan.exists());
