@@ -1000,7 +1000,7 @@ fn sigma_field(field: &str, has_sigma_time: bool) -> &'static str {
 
 /// `value` for a message: plain for everyday magnitudes (`-1`, `0.25`), in exponent notation
 /// for tiny and huge ones (`1e-200`, not two hundred digits).
-fn number(value: f64) -> String {
+pub(crate) fn number(value: f64) -> String {
     let magnitude = value.abs();
     if value == 0.0 || !value.is_finite() || (1e-4..1e16).contains(&magnitude) {
         value.to_string()
