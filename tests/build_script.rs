@@ -168,9 +168,32 @@ fn cache_problems_become_cargo_warnings() {
     let output = run_build_script(dir.path(), &dir.path().join("file/cache"), |_| {});
     let stdout = text(&output.stdout);
     assert!(output.status.success(), "{stdout}");
+    // One warning for the build, not one per mask.
+    let warning = format!(
+        "cargo::warning=the cache directory {} cannot be written (",
+        dir.path().join("file/cache").display()
+    );
+    assert_eq!(stdout.matches(&warning).count(), 1, "{stdout}");
+    assert!(!stdout.contains("could not write cache entry"), "{stdout}");
+}
+
+#[test]
+fn a_huge_name_is_a_short_cargo_error() {
+    let name = "n".repeat(1 << 20);
+    let dir = project(&VALID.replacen("name: \"a\"", &format!("name: \"{name}\""), 1));
+    let output = run_build_script(dir.path(), &dir.path().join("cache"), |_| {});
+    let stdout = text(&output.stdout);
+    let error = stdout
+        .lines()
+        .find(|line| line.starts_with("cargo::error="))
+        .unwrap_or_else(|| panic!("no error in {:?}", &stdout[..stdout.len().min(2000)]));
+    assert!(error.len() < 600, "{error}");
     assert!(
-        stdout.contains("cargo::warning=mask \"a\": could not write cache entry"),
-        "{stdout}"
+        error.contains(&format!(
+            "mask \"{}…\" (1048576 characters), field `name`: is 1048576 characters long",
+            &name[..64]
+        )),
+        "{error}"
     );
 }
 

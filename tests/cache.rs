@@ -250,21 +250,39 @@ fn concurrent_embeds_into_one_cache_both_succeed() {
 }
 
 #[test]
-fn unwritable_cache_location_only_warns() {
+fn unwritable_cache_location_warns_once_per_build() {
     let project = Project::new(MANIFEST);
-    // A directory cannot be created below a regular file, whoever runs the test.
+    // A directory cannot be created below a regular file, whoever runs the test; and a regular
+    // file is no directory (`STBN_CACHE_DIR` naming a file).
     std::fs::write(project.path("file"), "not a directory").unwrap();
-    let cache = project.path("file/cache");
-    let report = project.embed("out", &cache);
-    assert_eq!(statuses(&report), vec![CacheStatus::Miss; 3]);
-    assert!(report.masks.iter().all(|m| !m.stored));
-    assert_eq!(report.warnings.len(), 3, "{:?}", report.warnings);
-    assert!(
-        report.warnings[0].starts_with("mask \"a\": could not write cache entry"),
-        "{}",
-        report.warnings[0]
+    for cache in [project.path("file/cache"), project.path("file")] {
+        let report = project.embed("out", &cache);
+        assert_eq!(statuses(&report), vec![CacheStatus::Miss; 3]);
+        assert!(report.masks.iter().all(|m| !m.stored));
+        assert_eq!(report.warnings.len(), 1, "{:?}", report.warnings);
+        let prefix = format!(
+            "the cache directory {} cannot be written (",
+            cache.display()
+        );
+        assert!(
+            report.warnings[0].starts_with(&prefix),
+            "{}",
+            report.warnings[0]
+        );
+        assert!(
+            report.warnings[0].ends_with(
+                "); masks are generated but not cached (set STBN_CACHE_DIR to a writable \
+                 directory)"
+            ),
+            "{}",
+            report.warnings[0]
+        );
+        assert_eq!(blobs(&report), expected_blobs(&project.manifest()));
+    }
+    assert_eq!(
+        std::fs::read_to_string(project.path("file")).unwrap(),
+        "not a directory"
     );
-    assert_eq!(blobs(&report), expected_blobs(&project.manifest()));
 }
 
 #[cfg(unix)]
@@ -286,11 +304,20 @@ fn read_only_cache_dir_still_builds() {
     assert_eq!(blobs(&report), expected_blobs(&project.manifest()));
     assert!(report.masks.iter().all(|m| m.stored == writable));
     assert_eq!(
-        report.warnings.is_empty(),
-        writable,
+        report.warnings.len(),
+        usize::from(!writable),
         "{:?}",
         report.warnings
     );
+
+    // A read-only cache that holds every mask: hits, and nothing to warn about.
+    project.embed("out", &cache);
+    std::fs::set_permissions(&cache, std::fs::Permissions::from_mode(0o555)).unwrap();
+    let result = embed_with(&project.config("out2", &cache));
+    std::fs::set_permissions(&cache, std::fs::Permissions::from_mode(0o755)).unwrap();
+    let report = result.unwrap();
+    assert_eq!(statuses(&report), vec![CacheStatus::Hit; 3]);
+    assert!(report.warnings.is_empty(), "{:?}", report.warnings);
 }
 
 #[test]
@@ -439,4 +466,159 @@ fn entries_that_are_not_regular_files_or_too_large_are_regenerated_without_readi
     assert!(reasons[1].contains("not a regular file"), "{}", reasons[1]);
     assert!(reasons[2].contains("over the limit"), "{}", reasons[2]);
     assert_eq!(blobs(&report), good);
+}
+
+/// Sets the modification time of `path` to `ago` before now.
+fn age_file(path: &Path, ago: std::time::Duration) {
+    std::fs::File::options()
+        .write(true)
+        .open(path)
+        .unwrap()
+        .set_modified(std::time::SystemTime::now() - ago)
+        .unwrap();
+}
+
+const HOUR: std::time::Duration = std::time::Duration::from_secs(3600);
+
+#[test]
+fn orphaned_temporaries_are_removed_and_nothing_else() {
+    let project = Project::new(MANIFEST);
+    let cache = project.path("cache");
+    std::fs::create_dir_all(&cache).unwrap();
+    let file = |name: &str, ago: std::time::Duration| {
+        let path = cache.join(name);
+        std::fs::write(&path, b"partial entry").unwrap();
+        age_file(&path, ago);
+        path
+    };
+    // A killed writer's file: unlocked and untouched for an hour.
+    let stale = file(".tmp-Ab12Cd.part", HOUR);
+    // A live writer's file: locked, however old.
+    let live = file(".tmp-Ef34Gh.part", HOUR);
+    let lock = std::fs::File::open(&live).unwrap();
+    lock.try_lock().unwrap();
+    // Just created: its writer may not have locked it yet.
+    let fresh = file(".tmp-Ij56Kl.part", std::time::Duration::ZERO);
+    // Not ours: other names, a folder and a link with the pattern's name.
+    let foreign: Vec<PathBuf> = [
+        ".tmp-Ab12Cd.partial",
+        ".tmp-Ab12C.part",
+        ".tmp-Ab12Cde.part",
+        ".tmp-Ab-2Cd.part",
+        "tmp-Ab12Cd.part",
+        "notes.txt",
+    ]
+    .iter()
+    .map(|name| file(name, HOUR))
+    .collect();
+    std::fs::create_dir(cache.join(".tmp-Dir123.part")).unwrap();
+    let target = project.path("elsewhere");
+    std::fs::write(&target, b"a user's file").unwrap();
+    #[cfg(unix)]
+    std::os::unix::fs::symlink(&target, cache.join(".tmp-Lnk123.part")).unwrap();
+
+    let listed = Cache::new(&cache).remove_orphans(true).unwrap();
+    assert_eq!(
+        listed,
+        [stbn_build_support::cache::Orphan {
+            path: stale.clone(),
+            bytes: 13
+        }]
+    );
+    assert!(stale.exists(), "a dry run removes nothing");
+
+    let report = project.embed("out", &cache);
+    assert!(report.warnings.is_empty(), "{:?}", report.warnings);
+    assert!(!stale.exists());
+    assert!(live.exists() && fresh.exists());
+    assert!(foreign.iter().all(|path| path.exists()));
+    assert!(cache.join(".tmp-Dir123.part").is_dir());
+    assert_eq!(std::fs::read(&target).unwrap(), b"a user's file");
+    #[cfg(unix)]
+    assert!(cache.join(".tmp-Lnk123.part").is_symlink());
+
+    // Once its writer is gone, the live file is an orphan too.
+    drop(lock);
+    assert_eq!(Cache::new(&cache).remove_orphans(false).unwrap().len(), 1);
+    assert!(!live.exists() && fresh.exists());
+}
+
+#[test]
+fn entries_are_listed_by_last_use_and_pruned_keeping_the_manifest() {
+    use stbn_build_support::cache::{PruneRule, manifest_keys};
+
+    let project = Project::new(MANIFEST);
+    let cache_dir = project.path("cache");
+    project.embed("out", &cache_dir);
+    let cache = Cache::new(&cache_dir);
+    let paths: Vec<PathBuf> = (0..3)
+        .map(|i| entry_path(&project, &cache_dir, i))
+        .collect();
+    // Used 3, 2 and 1 days ago: a, b, c.
+    for (path, days) in paths.iter().zip([72, 48, 24]) {
+        age_file(path, HOUR * days);
+    }
+    // Not entries: a foreign file with an entry's name, a file with another name.
+    let foreign = cache_dir.join(format!("{}.stbn", "0".repeat(64)));
+    std::fs::write(&foreign, b"not a blob").unwrap();
+    std::fs::write(cache_dir.join("notes.stbn"), b"STBN notes").unwrap();
+    // An entry copied under another key's name: its key record names the original key.
+    let copied = cache_dir.join(format!("{}.stbn", "f".repeat(64)));
+    std::fs::copy(&paths[0], &copied).unwrap();
+
+    let entries = cache.entries().unwrap();
+    let listed: Vec<&PathBuf> = entries.iter().map(|e| &e.path).collect();
+    assert_eq!(listed, paths.iter().collect::<Vec<_>>());
+    for (entry, path) in entries.iter().zip(&paths) {
+        assert_eq!(entry.bytes, std::fs::metadata(path).unwrap().len());
+        assert_eq!(
+            entry.key,
+            path.file_stem().unwrap().to_str().unwrap(),
+            "the key is the file stem"
+        );
+    }
+    let bytes: Vec<u64> = entries.iter().map(|e| e.bytes).collect();
+
+    // Unused for more than 36 hours: a and b; a dry run only says so.
+    let dry = cache
+        .prune(PruneRule::OlderThan(HOUR * 36), &[], true)
+        .unwrap();
+    let removed: Vec<&PathBuf> = dry.removed.iter().map(|e| &e.path).collect();
+    assert_eq!(removed, [&paths[0], &paths[1]]);
+    assert!(paths.iter().all(|p| p.exists()));
+
+    // Down to c's size + 1, keeping a (the manifest of mask a alone): b and then c go.
+    let manifest_a = project.path("a.ron");
+    std::fs::write(
+        &manifest_a,
+        "(masks: [(name: \"a\", kind: Scalar, size: (16, 16, 8), seed: 1, encoding: Unorm8)])",
+    )
+    .unwrap();
+    let keep = manifest_keys(&Manifest::load(&manifest_a).unwrap());
+    assert_eq!(keep, [key(&project, 0)]);
+    let pruned = cache
+        .prune(PruneRule::ToSize(bytes[2] + 1), &keep, false)
+        .unwrap();
+    assert!(pruned.failures.is_empty());
+    let removed: Vec<&PathBuf> = pruned.removed.iter().map(|e| &e.path).collect();
+    assert_eq!(removed, [&paths[1], &paths[2]]);
+    let kept: Vec<&PathBuf> = pruned.kept.iter().map(|e| &e.path).collect();
+    assert_eq!(kept, [&paths[0]]);
+    assert!(paths[0].exists() && !paths[1].exists() && !paths[2].exists());
+    assert!(foreign.exists() && cache_dir.join("notes.stbn").exists() && copied.exists());
+
+    // A size the entries already fit removes nothing; a hit refreshes the last use.
+    let pruned = cache
+        .prune(PruneRule::ToSize(bytes[0]), &[], false)
+        .unwrap();
+    assert!(pruned.removed.is_empty());
+    let report = project.embed("out", &cache_dir);
+    assert_eq!(report.masks[0].cache, CacheStatus::Hit);
+    let used = cache.entries().unwrap();
+    let a = used.iter().find(|e| e.path == paths[0]).unwrap();
+    assert!(a.last_used.elapsed().unwrap() < HOUR, "{:?}", a.last_used);
+    // A directory that does not exist holds nothing.
+    let missing = Cache::new(project.path("missing"));
+    assert!(missing.entries().unwrap().is_empty());
+    assert!(missing.remove_orphans(false).unwrap().is_empty());
 }

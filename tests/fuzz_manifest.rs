@@ -2,7 +2,8 @@
 //! nightly toolchain): seeded mutations of the corpus in `tests/fuzz-corpus/manifest/` (characters
 //! and RON tokens inserted, deleted, duplicated and swapped), each parsed with
 //! `Manifest::parse`. Every input must return without panicking, and every error must point
-//! inside the text it was given (1-based line and column) and name the file.
+//! inside the text it was given (1-based line and column), name the file and stay short however
+//! long the input it quotes (runs past the 64 characters a message quotes are among the mutations).
 //!
 //! `STBN_FUZZ_ITERATIONS` raises the default 20,000 mutations for a longer local run.
 
@@ -100,7 +101,12 @@ fn mutate(text: &str, rng: &mut Rng) -> String {
     let mut chars: Vec<char> = text.chars().collect();
     for _ in 0..1 + rng.below(4) {
         let at = rng.below(chars.len() + 1);
-        match rng.below(5) {
+        match rng.below(6) {
+            5 => {
+                // A long run: a name, number, string or fields past the 64 characters a message quotes.
+                let run = ["n", "9", "\"x", "x: "][rng.below(4)].repeat(65 + rng.below(100));
+                chars.splice(at..at, run.chars());
+            }
             0 => {
                 let end = (at + 1 + rng.below(8)).min(chars.len());
                 chars.drain(at.min(end)..end);
@@ -125,6 +131,10 @@ fn mutate(text: &str, rng: &mut Rng) -> String {
     }
     chars.into_iter().collect()
 }
+
+/// Longest message a manifest error may have: the longest fixed text (the lists of valid fields
+/// and kinds) with a few quoted inputs of at most 64 characters each.
+const MAX_MESSAGE_CHARS: usize = 1200;
 
 #[test]
 fn mutated_manifests_never_panic_and_errors_point_into_the_text() {
@@ -168,6 +178,12 @@ fn mutated_manifests_never_panic_and_errors_point_into_the_text() {
                     "iteration {iteration}: {error} points outside {input:?}"
                 );
                 assert!(error.to_string().starts_with("fuzz.ron:"), "{error}");
+                // Quoted input is cut: a message never grows with the text it quotes.
+                assert!(
+                    error.to_string().chars().count() <= MAX_MESSAGE_CHARS,
+                    "iteration {iteration}: a message of {} characters: {error}",
+                    error.to_string().chars().count()
+                );
             }
         }
     }

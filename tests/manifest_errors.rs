@@ -185,7 +185,7 @@ const CASES: &[Case] = &[
         at: (14, 28),
         field: Some("size"),
         mask: Some("foo"),
-        message: "out of bounds",
+        message: "each element must be in 1..=65536 (got 5000000000)",
     },
     Case {
         what: "missing field",
@@ -397,9 +397,225 @@ fn the_first_problem_in_document_order_is_reported() {
 fn unclosed_manifest_reports_the_end() {
     let text = BASE.trim_end().trim_end_matches(')');
     let err = error(text);
-    assert_eq!(err.line(), 21);
+    assert_eq!(
+        err.to_string(),
+        "assets.ron:21:1: the file ends early: the `(` at line 1, column 1 is never closed"
+    );
     assert!(err.mask_name().is_none());
-    assert!(err.to_string().starts_with("assets.ron:21:"), "{err}");
+}
+
+#[test]
+fn a_manifest_cut_short_names_the_bracket_left_open() {
+    // Cut right after the list opens: not "expected opening `(` for struct `Mask`".
+    assert_eq!(
+        error("(masks: [").to_string(),
+        "assets.ron:1:10: the file ends early: the `[` of the `masks` list at line 1, column 9 \
+         is never closed"
+    );
+    assert_eq!(
+        error("(\n    masks: [\n  // a comment\n").to_string(),
+        "assets.ron:4:1: the file ends early: the `[` of the `masks` list at line 2, column 12 \
+         is never closed"
+    );
+    // Inside an entry, after a complete field: the entry's parenthesis.
+    let err = error("(masks: [\n    Mask(name: \"a\", kind: Scalar,\n");
+    assert_eq!(
+        err.to_string(),
+        "assets.ron:3:1: mask \"a\", the file ends early: the `(` of mask entry #1 at line 2, \
+         column 9 is never closed"
+    );
+    // Inside a value.
+    let err = error("(masks: [(name: \"a\", size: (8, 8,");
+    assert_eq!((err.line(), err.column()), (1, 34), "{err}");
+    assert_eq!(err.field(), Some("size"));
+    assert_eq!(
+        err.message(),
+        "the file ends early: the `(` at line 1, column 28 is never closed"
+    );
+}
+
+#[test]
+fn integers_out_of_range_name_the_range_and_the_value() {
+    let err = error(&edit(7, "            seed: -1,"));
+    assert_eq!(
+        err.to_string(),
+        "assets.ron:7:19: mask \"first\", field `seed`: must be in 0..=18446744073709551615 \
+         (got -1)"
+    );
+    let err = error(&edit(7, "            seed: 18446744073709551616,"));
+    assert_eq!(
+        err.message(),
+        "must be in 0..=18446744073709551615 (got 18446744073709551616)"
+    );
+    let err = error(&edit(6, "            size: (16, -16, 8),"));
+    assert_eq!((err.line(), err.column()), (6, 24), "{err}");
+    assert_eq!(err.message(), "each element must be in 1..=65536 (got -16)");
+    let text = "(masks: [(name: \"m\", kind: Vec2, size: (8, 8, 4), seed: 1, \
+                assignment_passes: 99999999999, encoding: Unorm8)])";
+    assert_eq!(
+        error(text).message(),
+        "must be in 0..=1000 (got 99999999999)"
+    );
+    for (filter, message) in [
+        (
+            "spatial_filter: Box(-3)",
+            "Box size must be in 1..=65536 (got -3)",
+        ),
+        (
+            "spatial_filter: Binomial(4294967296)",
+            "Binomial order must be in 1..=256 (got 4294967296)",
+        ),
+        (
+            "temporal_filter: Box(4294967296)",
+            "Box size must be in 1..=65536 (got 4294967296)",
+        ),
+    ] {
+        let text = format!(
+            "(masks: [(name: \"m\", kind: FilterAdapted, size: (8, 8, 4), seed: 1, {filter}, \
+             encoding: Unorm8)])"
+        );
+        assert_eq!(error(&text).message(), message, "{filter}");
+    }
+}
+
+#[test]
+fn a_seed_of_millions_of_digits_is_quoted_cut() {
+    let digits = "9".repeat(2_000_000);
+    let err = error(&edit(7, &format!("            seed: {digits},")));
+    assert_eq!(
+        err.to_string(),
+        format!(
+            "assets.ron:7:19: mask \"first\", field `seed`: must be in \
+             0..=18446744073709551615 (got {}… (2000000 characters))",
+            "9".repeat(64)
+        )
+    );
+}
+
+#[test]
+fn long_names_and_strings_are_quoted_cut_with_their_length() {
+    // A valid identifier of 4 Mi characters: refused for its length, and quoted cut.
+    let long = "n".repeat(4 << 20);
+    let n64 = "n".repeat(64);
+    let err = error(&edit(4, &format!("            name: \"{long}\",")));
+    assert_eq!(err.mask_name(), Some(long.as_str()));
+    assert_eq!(
+        err.to_string(),
+        format!(
+            "assets.ron:4:19: mask \"{n64}…\" (4194304 characters), field `name`: is 4194304 \
+             characters long; at most 128 are allowed (the name becomes file names, which file \
+             systems limit to 255 bytes)"
+        )
+    );
+    // Not an identifier: the message quotes it too.
+    let spaced = "a b".repeat(1000);
+    let err = error(&edit(4, &format!("            name: \"{spaced}\",")));
+    assert!(
+        err.message().starts_with(&format!(
+            "{:?} (3000 characters) is not a Rust identifier",
+            format!("{}…", &spaced[..64])
+        )),
+        "{err}"
+    );
+    assert!(err.to_string().len() < 400, "{err}");
+    // An unknown field and an unknown variant of 100000 characters.
+    let field = "x".repeat(100_000);
+    let err = error(&edit(16, &format!("            {field}: 0.1,")));
+    assert_eq!(err.field(), Some(field.as_str()));
+    assert!(
+        err.to_string().contains(&format!(
+            "field `{}…` (100000 characters): unknown field",
+            &field[..64]
+        )),
+        "{err}"
+    );
+    assert!(err.to_string().len() < 800, "{err}");
+    let err = error(&edit(13, &format!("            kind: {field},")));
+    assert_eq!(err.field(), Some("kind"));
+    assert!(
+        err.message()
+            .contains(&format!("`{}…` (100000 characters)", &field[..64])),
+        "{err}"
+    );
+    assert!(err.to_string().len() < 1200, "{err}");
+    // A struct name where `Mask` belongs.
+    let err = error(&edit(3, &format!("        {field}(")));
+    assert!(
+        err.message()
+            .contains(&format!("`{}…` (100000 characters)", &field[..64])),
+        "{err}"
+    );
+    assert!(err.to_string().len() < 400, "{err}");
+}
+
+#[test]
+fn huge_and_tiny_numbers_read_compactly() {
+    let mask = |fields: &str| {
+        format!(
+            "(masks: [(name: \"m\", kind: FilterAdapted, size: (16, 16, 8), seed: 1, {fields}, \
+             encoding: Unorm8)])"
+        )
+    };
+    for (fields, field, message) in [
+        (
+            "spatial_filter: Gaussian(1e300)",
+            "spatial_filter",
+            "Gaussian sigma is 1e300; it must be finite, > 0 and <= 4096",
+        ),
+        (
+            "temporal_filter: Exponential(1e-300)",
+            "temporal_filter",
+            "Exponential alpha is 1e-300; it must be in [0.001, 1]",
+        ),
+        (
+            "swaps_per_pixel: 1e300",
+            "swaps_per_pixel",
+            "must be in 0..=10000 (got 1e300)",
+        ),
+    ] {
+        let err = error(&mask(fields));
+        assert_eq!(
+            (err.field(), err.message()),
+            (Some(field), message),
+            "{fields}"
+        );
+    }
+    let err = error(
+        "(masks: [(name: \"m\", kind: Vec2, size: (8, 8, 4), seed: 1, swaps_per_pixel: -1e200, \
+         encoding: Unorm8)])",
+    );
+    assert_eq!(err.message(), "must be in 0..=10000 (got -1e200)");
+}
+
+#[test]
+fn oversized_manifests_are_refused_before_parsing() {
+    let limit = Manifest::MAX_FILE_BYTES as usize;
+    // Over the limit by one byte: refused at once, however it would parse.
+    let text = format!("{BASE}{}", " ".repeat(limit + 1 - BASE.len()));
+    let err = error(&text);
+    assert_eq!(
+        err.to_string(),
+        format!(
+            "assets.ron:1:1: the manifest is {} bytes; at most {limit} bytes ({} MiB) are read",
+            limit + 1,
+            limit >> 20
+        )
+    );
+    // At the limit: parsed.
+    assert!(Manifest::parse(&text[..limit], "assets.ron").is_ok());
+    // From a file: refused before reading, naming the file and the limit.
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("assets.ron");
+    std::fs::write(&path, &text).unwrap();
+    let err = Manifest::load(&path).unwrap_err().to_string();
+    assert_eq!(
+        err,
+        format!(
+            "could not read the manifest {}: is {} bytes, over the limit of {limit} bytes",
+            path.display(),
+            limit + 1
+        )
+    );
 }
 
 #[test]

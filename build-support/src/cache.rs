@@ -14,28 +14,44 @@
 //! has no room for the key; the record binds the file to the key it was written for, so a valid
 //! blob copied or renamed to another key's path (another mask's bytes) is not a hit.
 //!
-//! * Writes go to a uniquely named temporary file in the cache directory, renamed over the entry:
-//!   concurrent builds each write whole files, and readers never see a partial one.
+//! * Writes go to a uniquely named temporary file in the cache directory (`.tmp-XXXXXX.part`,
+//!   six letters or digits), renamed over the entry: concurrent builds each write whole files,
+//!   and readers never see a partial one. The writer holds an exclusive lock (`flock` on Unix,
+//!   `LockFileEx` on Windows) on its temporary file until the rename.
+//! * A temporary file that a killed writer left is an orphan: [`Cache::remove_orphans`] (run by
+//!   every [`embed`](crate::embed()) that can write the cache) removes files of exactly that
+//!   name pattern that are regular files, unlocked and untouched for [`ORPHAN_GRACE`]; it never
+//!   removes anything else. The grace covers the instant between a writer creating its file and
+//!   locking it.
+//! * Hits refresh the entry's modification time, so it tells when the entry was last used;
+//!   [`Cache::entries`] lists entries with their size and last use, and [`Cache::prune`] removes
+//!   the least recently used ones down to a size, or those unused for a while, keeping the
+//!   entries of given keys ([`manifest_keys`]: those of the current manifest). Only files named
+//!   `<64 hex digits>.stbn` that start like a `.stbn` blob and end with the key record of their
+//!   name count as entries.
 //! * Reads take only a regular file (a FIFO or device is refused without reading it) no larger
 //!   than a valid entry of the recipe can be, checked before reading, in one read.
 //! * Reads are verified: the blob ([`PackedStbn::from_bytes`] plus a header comparison with the
 //!   recipe), then the key record. An entry that fails is regenerated and overwritten, with a
 //!   warning.
 //! * A cache directory that cannot be created or written only costs a warning: the blob is still
-//!   generated and returned.
+//!   generated and returned. [`embed`](crate::embed()) checks the directory once per build and
+//!   warns once.
 //!
 //! Location ([`default_cache_dir`]): `$STBN_CACHE_DIR` if set and non-empty, else
 //! `<target dir>/stbn-cache`.
 
-use std::io::{self, Write as _};
+use std::fs::File;
+use std::io::{self, Read as _, Write as _};
 use std::path::{Path, PathBuf};
+use std::time::{Duration, SystemTime};
 
 use stbn_gen::VectorSpecError;
 use stbn_runtime::{Compression, Encoding, MaskHeader, PackedStbn};
 
-use crate::Error;
 use crate::encode::{DEFLATE_LEVEL, ENCODER_VERSION};
 use crate::recipe::Recipe;
+use crate::{Error, Manifest};
 
 /// Version of the generator's output, part of every cache key.
 ///
@@ -155,6 +171,17 @@ impl Cache {
         encoding: Encoding,
         compression: Compression,
     ) -> Result<Fetched, VectorSpecError> {
+        self.fetch_with(recipe, encoding, compression, true)
+    }
+
+    /// [`fetch`](Self::fetch), storing a generated blob only if `store`.
+    pub(crate) fn fetch_with(
+        &self,
+        recipe: &Recipe,
+        encoding: Encoding,
+        compression: Compression,
+        store: bool,
+    ) -> Result<Fetched, VectorSpecError> {
         let key = CacheKey::new(recipe, encoding, compression);
         let path = self.entry_path(&key);
         let mut warnings = Vec::new();
@@ -162,6 +189,9 @@ impl Cache {
         let status = match read {
             Ok(entry) => match verify_entry(&entry, &key, recipe, encoding, compression) {
                 Ok(()) => {
+                    // The modification time records the last use (best effort: a shared cache's
+                    // entries may belong to another user).
+                    let _ = File::open(&path).and_then(|f| f.set_modified(SystemTime::now()));
                     let mut blob = entry;
                     blob.truncate(blob.len() - KEY_RECORD_LEN);
                     return Ok(Fetched {
@@ -210,16 +240,17 @@ impl Cache {
             }
         };
         let (_, blob) = recipe.make(encoding, compression)?;
-        let stored = match write_atomically(&path, &key.entry_bytes(&blob)) {
-            Ok(()) => true,
-            Err(e) => {
-                warnings.push(format!(
-                    "could not write cache entry {} ({e}); continuing without caching it",
-                    path.display()
-                ));
-                false
-            }
-        };
+        let stored = store
+            && match write_atomically(&path, &key.entry_bytes(&blob)) {
+                Ok(()) => true,
+                Err(e) => {
+                    warnings.push(format!(
+                        "could not write cache entry {} ({e}); continuing without caching it",
+                        path.display()
+                    ));
+                    false
+                }
+            };
         Ok(Fetched {
             blob,
             status,
@@ -227,6 +258,256 @@ impl Cache {
             warnings,
         })
     }
+}
+
+/// Name prefix of the temporary files writes go through.
+const TEMP_PREFIX: &str = ".tmp-";
+/// Name suffix of the temporary files writes go through.
+const TEMP_SUFFIX: &str = ".part";
+/// Random letters and digits between the prefix and suffix of a temporary file's name.
+const TEMP_RANDOM_CHARS: usize = 6;
+
+/// How long an unlocked temporary file must have been untouched before
+/// [`Cache::remove_orphans`] takes it for a killed writer's: a live writer locks its file right
+/// after creating it, and this covers that instant many times over.
+pub const ORPHAN_GRACE: Duration = Duration::from_secs(60);
+
+/// Whether `name` is exactly the name of one of this crate's temporary files.
+fn is_temp_name(name: &str) -> bool {
+    name.strip_prefix(TEMP_PREFIX)
+        .and_then(|rest| rest.strip_suffix(TEMP_SUFFIX))
+        .is_some_and(|random| {
+            random.len() == TEMP_RANDOM_CHARS && random.bytes().all(|b| b.is_ascii_alphanumeric())
+        })
+}
+
+/// Whether `name` is an entry's name: 64 lowercase hex digits and `.stbn`.
+fn entry_key(name: &str) -> Option<&str> {
+    let key = name.strip_suffix(".stbn")?;
+    (key.len() == 2 * blake3::OUT_LEN
+        && key.bytes().all(|b| matches!(b, b'0'..=b'9' | b'a'..=b'f')))
+    .then_some(key)
+}
+
+/// One entry of a cache directory ([`Cache::entries`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct CacheEntry {
+    /// The entry's file.
+    pub path: PathBuf,
+    /// Its key, 64 lowercase hex digits (the file stem).
+    pub key: String,
+    /// Its size in bytes.
+    pub bytes: u64,
+    /// When it was last written or read by a build (its modification time).
+    pub last_used: SystemTime,
+}
+
+/// A temporary file left by a writer that did not finish ([`Cache::remove_orphans`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Orphan {
+    /// The file.
+    pub path: PathBuf,
+    /// Its size in bytes.
+    pub bytes: u64,
+}
+
+/// Which entries [`Cache::prune`] removes (never those it is told to keep).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PruneRule {
+    /// The least recently used, until the entries take at most this many bytes.
+    ToSize(u64),
+    /// Those last used longer ago than this.
+    OlderThan(Duration),
+}
+
+/// What [`Cache::prune`] did (or, in a dry run, would do).
+#[derive(Debug, Default)]
+pub struct Pruned {
+    /// Entries removed, least recently used first.
+    pub removed: Vec<CacheEntry>,
+    /// Entries left, least recently used first.
+    pub kept: Vec<CacheEntry>,
+    /// Entries that could not be removed, and why.
+    pub failures: Vec<(PathBuf, io::Error)>,
+}
+
+/// The keys of every mask of `manifest`: the entries a build of it reads.
+pub fn manifest_keys(manifest: &Manifest) -> Vec<CacheKey> {
+    manifest
+        .masks()
+        .iter()
+        .map(|m| CacheKey::new(&m.recipe(), m.encoding, m.compression))
+        .collect()
+}
+
+impl Cache {
+    /// Creates the directory if needed and checks that a file can be written in it (a temporary
+    /// file, removed at once); then removes its orphans ([`remove_orphans`](Self::remove_orphans)).
+    ///
+    /// # Errors
+    /// Why the directory cannot be created or written.
+    pub(crate) fn prepare(&self) -> io::Result<()> {
+        std::fs::create_dir_all(&self.dir)?;
+        tempfile::Builder::new()
+            .prefix(TEMP_PREFIX)
+            .suffix(TEMP_SUFFIX)
+            .rand_bytes(TEMP_RANDOM_CHARS)
+            .tempfile_in(&self.dir)?;
+        let _ = self.remove_orphans(false);
+        Ok(())
+    }
+
+    /// The temporary files that writers killed mid-entry left in the directory, removed unless
+    /// `dry_run`. A file counts only if its name is exactly `.tmp-XXXXXX.part` (six ASCII letters
+    /// or digits), it is a regular file (not a link), it has not been modified for
+    /// [`ORPHAN_GRACE`], and no writer holds its lock; nothing else is ever removed. A
+    /// directory that does not exist has none.
+    ///
+    /// # Errors
+    /// Only if the directory cannot be listed; files that cannot be checked or removed are left.
+    pub fn remove_orphans(&self, dry_run: bool) -> io::Result<Vec<Orphan>> {
+        let listing = match std::fs::read_dir(&self.dir) {
+            Ok(listing) => listing,
+            Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(Vec::new()),
+            Err(e) => return Err(e),
+        };
+        let now = SystemTime::now();
+        let mut orphans = Vec::new();
+        for item in listing.flatten() {
+            if !item.file_name().to_str().is_some_and(is_temp_name) {
+                continue;
+            }
+            let path = item.path();
+            let Ok(meta) = std::fs::symlink_metadata(&path) else {
+                continue;
+            };
+            let untouched = meta
+                .modified()
+                .ok()
+                .and_then(|modified| now.duration_since(modified).ok())
+                .is_some_and(|age| age >= ORPHAN_GRACE);
+            if !meta.file_type().is_file() || !untouched || !unlocked(&path) {
+                continue;
+            }
+            if dry_run || std::fs::remove_file(&path).is_ok() {
+                orphans.push(Orphan {
+                    path,
+                    bytes: meta.len(),
+                });
+            }
+        }
+        orphans.sort_by(|a, b| a.path.cmp(&b.path));
+        Ok(orphans)
+    }
+
+    /// The entries of the directory, least recently used first (ties by key). Only regular
+    /// files named `<64 hex digits>.stbn` that start with the `.stbn` magic and end with the key
+    /// record of that key count: anything else in the directory is neither listed nor pruned. A
+    /// directory that does not exist holds none.
+    ///
+    /// # Errors
+    /// Only if the directory cannot be listed.
+    pub fn entries(&self) -> io::Result<Vec<CacheEntry>> {
+        let listing = match std::fs::read_dir(&self.dir) {
+            Ok(listing) => listing,
+            Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(Vec::new()),
+            Err(e) => return Err(e),
+        };
+        let mut entries = Vec::new();
+        for item in listing.flatten() {
+            let name = item.file_name();
+            let Some(key) = name.to_str().and_then(entry_key) else {
+                continue;
+            };
+            let path = item.path();
+            let Ok(meta) = std::fs::symlink_metadata(&path) else {
+                continue;
+            };
+            if !meta.file_type().is_file() || !written_for(&path, key) {
+                continue;
+            }
+            entries.push(CacheEntry {
+                key: key.to_owned(),
+                path,
+                bytes: meta.len(),
+                last_used: meta.modified().unwrap_or(SystemTime::UNIX_EPOCH),
+            });
+        }
+        entries.sort_by(|a, b| a.last_used.cmp(&b.last_used).then(a.key.cmp(&b.key)));
+        Ok(entries)
+    }
+
+    /// Removes entries by `rule` (unless `dry_run`), never those of `keep`: least recently used
+    /// first. With [`PruneRule::ToSize`] the kept entries may still exceed the size when `keep`
+    /// alone does.
+    ///
+    /// # Errors
+    /// Only if the directory cannot be listed; entries that cannot be removed are reported in
+    /// [`Pruned::failures`] and stay in [`Pruned::kept`].
+    pub fn prune(&self, rule: PruneRule, keep: &[CacheKey], dry_run: bool) -> io::Result<Pruned> {
+        let keep: Vec<String> = keep.iter().map(CacheKey::to_hex).collect();
+        let entries = self.entries()?;
+        let mut total: u64 = entries.iter().map(|e| e.bytes).sum();
+        let now = SystemTime::now();
+        let mut pruned = Pruned::default();
+        for entry in entries {
+            let remove = !keep.contains(&entry.key)
+                && match rule {
+                    PruneRule::ToSize(limit) => total > limit,
+                    PruneRule::OlderThan(age) => now
+                        .duration_since(entry.last_used)
+                        .is_ok_and(|unused| unused > age),
+                };
+            if !remove {
+                pruned.kept.push(entry);
+                continue;
+            }
+            match if dry_run {
+                Ok(())
+            } else {
+                std::fs::remove_file(&entry.path)
+            } {
+                Ok(()) => {
+                    total -= entry.bytes;
+                    pruned.removed.push(entry);
+                }
+                Err(e) => {
+                    pruned.failures.push((entry.path.clone(), e));
+                    pruned.kept.push(entry);
+                }
+            }
+        }
+        Ok(pruned)
+    }
+}
+
+/// Whether no one holds the lock of the file at `path` (it is taken and released at once).
+/// `false` when that cannot be told: the file cannot be opened or locks are unsupported.
+fn unlocked(path: &Path) -> bool {
+    let Ok(file) = File::open(path) else {
+        return false;
+    };
+    file.try_lock().is_ok()
+}
+
+/// Whether the file at `path` is an entry this cache wrote for `key` (64 hex digits): it starts
+/// with the `.stbn` magic and ends with the key record naming `key`.
+fn written_for(path: &Path, key: &str) -> bool {
+    use std::io::{Seek as _, SeekFrom};
+
+    let check = || -> io::Result<bool> {
+        let mut file = File::open(path)?;
+        let mut magic = [0u8; 4];
+        file.read_exact(&mut magic)?;
+        file.seek(SeekFrom::End(-(KEY_RECORD_LEN as i64)))?;
+        let mut record = [0u8; KEY_RECORD_LEN];
+        file.read_exact(&mut record)?;
+        let (record_magic, recorded) = record.split_at(KEY_RECORD_MAGIC.len());
+        Ok(&magic == b"STBN"
+            && record_magic == KEY_RECORD_MAGIC
+            && blake3::Hash::from_slice(recorded).is_ok_and(|h| h.to_hex().as_str() == key))
+    };
+    check().unwrap_or(false)
 }
 
 /// The most bytes a valid entry of `recipe` stored with `encoding` can have: the 64-byte header,
@@ -322,12 +603,18 @@ pub(crate) fn write_atomically(path: &Path, bytes: &[u8]) -> io::Result<()> {
     let dir = path.parent().unwrap_or(Path::new("."));
     std::fs::create_dir_all(dir)?;
     let mut builder = tempfile::Builder::new();
-    builder.prefix(".tmp-").suffix(".part");
+    builder
+        .prefix(TEMP_PREFIX)
+        .suffix(TEMP_SUFFIX)
+        .rand_bytes(TEMP_RANDOM_CHARS);
     // Readable by everyone sharing the cache, like any other build output (umask applies);
     // temporary files are otherwise private to their creator.
     #[cfg(unix)]
     builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o644));
     let mut file = builder.tempfile_in(dir)?;
+    // Marks the file as live for `remove_orphans`, held until the rename (and the close after
+    // it). A file system without locks leaves the grace period as the only protection.
+    let _ = file.as_file().try_lock();
     file.write_all(bytes)?;
     file.persist(path).map_err(|e| e.error)?;
     Ok(())

@@ -5,6 +5,7 @@ use std::path::Path;
 
 use stbn_runtime::{Compression, Encoding, MaskHeader};
 
+use crate::manifest::number;
 use crate::{Error, MaskEntry, Method};
 
 /// One mask to declare: its manifest entry and the blob file to embed.
@@ -109,7 +110,11 @@ fn declare(out: &mut String, mask: &EmbeddedMask<'_>, path: &str) {
         Method::VoidAndCluster(_) => format!(
             "Seed {}; σ {} pixels in space, {} frames in time.\n/// * Initial density {}; kernel \
              tolerance {}.",
-            entry.seed, entry.sigma, entry.sigma_time, entry.density, entry.kernel_tolerance
+            entry.seed,
+            number(entry.sigma),
+            number(entry.sigma_time),
+            number(entry.density),
+            number(entry.kernel_tolerance)
         ),
         Method::Baseline(_) => format!("Seed {}.", entry.seed),
         Method::Swap => format!(
@@ -117,9 +122,9 @@ fn declare(out: &mut String, mask: &EmbeddedMask<'_>, path: &str) {
              {} assignment passes.\n\
              /// * Read it with `sample_vector` / `sample_vec2..4` / `sample_pdf`.",
             entry.seed,
-            entry.sigma,
-            entry.sigma_value,
-            entry.swaps_per_pixel,
+            number(entry.sigma),
+            number(entry.sigma_value),
+            number(entry.swaps_per_pixel),
             entry.assignment_passes
         ),
         Method::FilterAdapted => format!(
@@ -128,7 +133,7 @@ fn declare(out: &mut String, mask: &EmbeddedMask<'_>, path: &str) {
             entry.spatial_filter,
             entry.temporal_filter,
             entry.filter_combination,
-            entry.swaps_per_pixel,
+            number(entry.swaps_per_pixel),
             match entry.space {
                 None => "Scalar: read it with `sample`.".to_owned(),
                 Some(space) =>
@@ -235,6 +240,30 @@ mod tests {
             ),
             "{stored}"
         );
+    }
+
+    /// Extreme parameters read compactly in the generated documentation.
+    #[test]
+    fn extreme_numbers_are_documented_compactly() {
+        let mut extreme = entry(Compression::None);
+        (extreme.sigma, extreme.sigma_time, extreme.kernel_tolerance) = (1e300, 2e-300, 1e-300);
+        let code = assets_rs(
+            Path::new("assets.ron"),
+            &[EmbeddedMask {
+                entry: &extreme,
+                blob_path: Path::new("/out/stbn/foo_1.stbn"),
+                blob_len: 64 + 1024,
+            }],
+        )
+        .unwrap();
+        assert!(
+            code.contains(
+                "σ 1e300 pixels in space, 2e-300 frames in time.\n/// * Initial density 0.1; \
+                 kernel tolerance 1e-300."
+            ),
+            "{code}"
+        );
+        assert!(code.lines().all(|line| line.len() < 200), "{code}");
     }
 
     #[cfg(unix)]

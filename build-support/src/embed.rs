@@ -88,7 +88,10 @@ impl fmt::Display for EmbedReport {
 }
 
 /// Embeds the masks of `config.manifest`: for each mask, gets its blob from `config.cache` (or
-/// generates it, different masks in parallel, with deterministic output), writes it to
+/// generates it, different masks in parallel, with deterministic output; a cache directory that
+/// cannot be written is one warning when a mask had to be generated, and the cache's orphaned
+/// temporary files are removed first:
+/// [`Cache::remove_orphans`](crate::Cache::remove_orphans)), writes it to
 /// `<out_dir>/stbn/<name>.stbn`, removes blobs there of masks no longer declared, and writes
 /// `<out_dir>/stbn_assets.rs` with one `pub static` per mask (see
 /// [`codegen::assets_rs`](crate::codegen::assets_rs)). Files whose content is unchanged are not
@@ -107,20 +110,36 @@ pub fn embed_with(config: &EmbedConfig) -> Result<EmbedReport, Error> {
     std::fs::create_dir_all(&blob_dir)
         .map_err(|e| Error::io("create the blob directory", &blob_dir, e))?;
 
+    let mut warnings = Vec::new();
+    // Checked once, so an unusable directory costs one warning, not one per mask, and only when
+    // a mask had to be generated: entries already there are still read.
+    let unwritable = config.cache.prepare().err();
+    let store = unwritable.is_none();
     let fetched: Vec<_> = manifest
         .masks()
         .par_iter()
         .map(|entry| {
             let start = Instant::now();
-            let result = config
-                .cache
-                .fetch(&entry.recipe(), entry.encoding, entry.compression);
+            let result =
+                config
+                    .cache
+                    .fetch_with(&entry.recipe(), entry.encoding, entry.compression, store);
             (result, start.elapsed())
         })
         .collect();
 
+    if let Some(e) = unwritable
+        && fetched
+            .iter()
+            .any(|(result, _)| result.as_ref().is_ok_and(|f| f.status != CacheStatus::Hit))
+    {
+        warnings.push(format!(
+            "the cache directory {} cannot be written ({e}); masks are generated but not \
+             cached (set {CACHE_DIR_ENV} to a writable directory)",
+            config.cache.dir().display()
+        ));
+    }
     let mut masks = Vec::with_capacity(fetched.len());
-    let mut warnings = Vec::new();
     for (entry, (result, time)) in manifest.masks().iter().zip(fetched) {
         let fetched = result.map_err(|source| Error::Generate {
             mask: entry.name.clone(),

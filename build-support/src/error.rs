@@ -6,10 +6,14 @@ use std::path::{Path, PathBuf};
 
 use stbn_gen::VectorSpecError;
 
+use crate::quote::{backticked, quoted};
+
 /// A problem in the manifest, with the place it was found.
 ///
 /// `Display` reads `FILE:LINE:COLUMN: mask "NAME", field `FIELD`: MESSAGE`; the mask and field
-/// parts are left out when the problem is not inside one (a missing `masks` list, say).
+/// parts are left out when the problem is not inside one (a missing `masks` list, say). A name or
+/// field longer than 64 characters is shown cut, with its length (`mask "nnnn…" (15728640
+/// characters)`); the accessors return it whole.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ManifestError {
     // Boxed to keep `Result<_, ManifestError>` small.
@@ -64,12 +68,12 @@ impl fmt::Display for ManifestError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "{}:{}:{}: ", self.path.display(), self.line, self.column)?;
         match (&self.mask_name, self.mask_index) {
-            (Some(name), _) => write!(f, "mask {name:?}, ")?,
+            (Some(name), _) => write!(f, "mask {}, ", quoted(name))?,
             (None, Some(index)) => write!(f, "mask #{} (unnamed), ", index + 1)?,
             (None, None) => {}
         }
         if let Some(field) = &self.field {
-            write!(f, "field `{field}`: ")?;
+            write!(f, "field {}: ", backticked(field))?;
         }
         f.write_str(&self.message)
     }

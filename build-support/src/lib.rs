@@ -51,7 +51,8 @@
 //!   a [`ManifestError`] naming file, line, column and field.
 //! * [`MaskEntry::recipe`] / [`Recipe::make`]: what to generate for a mask, generated and encoded.
 //! * [`encode::encode_volume`] / [`encode::encode_vector`]: a generated volume as a complete blob.
-//! * [`Cache`]: content-addressed blob cache with verified reads and atomic writes.
+//! * [`Cache`]: content-addressed blob cache with verified reads and atomic writes; listed and
+//!   pruned with [`Cache::entries`] and [`Cache::prune`] (`stbn-gen cache` on the command line).
 //! * [`codegen::assets_rs`]: the module source.
 //! * [`embed`] / [`embed_with`] / [`embed_or_exit`]: all of the above for a build script.
 
@@ -63,6 +64,7 @@ mod embed;
 pub mod encode;
 mod error;
 pub mod manifest;
+mod quote;
 pub mod recipe;
 mod source;
 

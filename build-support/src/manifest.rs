@@ -66,7 +66,8 @@ use stbn_gen::{
 };
 use stbn_runtime::{Compression, Encoding};
 
-use crate::source::{Pos, SourceMap};
+use crate::quote::{self, compact_numbers, excerpt, quoted, shorten_quoted};
+use crate::source::{Located, MaskSource, Pos, SourceMap, Unclosed};
 use crate::{Error, ManifestError};
 
 /// What a mask holds and how it is generated.
@@ -415,12 +416,29 @@ impl Manifest {
     /// Parses and validates manifest `text`; `path` is only used in error messages.
     ///
     /// # Errors
-    /// The first problem in document order: a syntax or type error, an unknown or missing field,
+    /// Text longer than [`Manifest::MAX_FILE_BYTES`] is refused before it is parsed. Otherwise
+    /// the first problem in document order: a syntax or type error, an unknown or missing field,
     /// more than [`Manifest::MAX_MASKS`] masks, a name that is not an ASCII Rust identifier (or
     /// is a keyword, or is longer than [`Manifest::MAX_NAME_LEN`]), a name that duplicates an
     /// earlier one (compared in upper case), or a value out of range. A leading UTF-8 byte-order
     /// mark is skipped (lines and columns count as an editor shows them, without it).
     pub fn parse(text: &str, path: impl AsRef<Path>) -> Result<Manifest, ManifestError> {
+        if text.len() as u64 > Self::MAX_FILE_BYTES {
+            return Err(ManifestError {
+                path: path.as_ref().into(),
+                line: 1,
+                column: 1,
+                mask_index: None,
+                mask_name: None,
+                field: None,
+                message: format!(
+                    "the manifest is {} bytes; at most {} bytes ({} MiB) are read",
+                    text.len(),
+                    Self::MAX_FILE_BYTES,
+                    Self::MAX_FILE_BYTES >> 20
+                ),
+            });
+        }
         let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let source = Source {
             text,
@@ -540,13 +558,14 @@ impl Manifest {
                     let (field, message) = match &e {
                         FilterAdaptedSpecError::Spec(e) => spec_error_field(e, false),
                         FilterAdaptedSpecError::Filter { field, message } => {
-                            (*field, message.clone())
+                            (*field, compact_numbers(message, number).into_owned())
                         }
                         FilterAdaptedSpecError::InvalidBudget(value) => (
                             "swaps_per_pixel",
                             format!(
-                                "must be in 0..={} (got {value})",
-                                FilterAdaptedSpec::MAX_SWAPS_PER_PIXEL
+                                "must be in 0..={} (got {})",
+                                FilterAdaptedSpec::MAX_SWAPS_PER_PIXEL,
+                                number(*value)
                             ),
                         ),
                         // Every space a manifest names is valid; keep the message if that changes.
@@ -569,8 +588,9 @@ impl Manifest {
                     VectorSpecError::InvalidBudget(value) => (
                         "swaps_per_pixel",
                         format!(
-                            "must be in 0..={} (got {value})",
-                            VectorSpec::MAX_SWAPS_PER_PIXEL
+                            "must be in 0..={} (got {})",
+                            VectorSpec::MAX_SWAPS_PER_PIXEL,
+                            number(*value)
                         ),
                     ),
                     VectorSpecError::InvalidAssignmentPasses(value) => (
@@ -846,9 +866,11 @@ fn applies_to(field: &str) -> &'static str {
 /// `path`; the error message names the file.
 #[cfg(feature = "images")]
 fn load_image(path: &Path) -> Result<ImageSource, String> {
+    let shown = path.display().to_string();
     let bytes = stbn_gen::file::read_regular_file(path, ImagePdf::MAX_FILE_BYTES)
-        .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-    let pdf = ImagePdf::decode(path, &bytes).map_err(|e| e.to_string())?;
+        .map_err(|e| format!("cannot read {}: {e}", excerpt(&shown)))?;
+    let pdf = ImagePdf::decode(path, &bytes)
+        .map_err(|e| e.to_string().replace(&shown, &excerpt(&shown)))?;
     Ok(ImageSource {
         path: path.to_owned(),
         hash: blake3::hash(&bytes),
@@ -863,7 +885,7 @@ fn load_image(path: &Path) -> Result<ImageSource, String> {
         "reading {} needs the `images` feature of stbn-build-support; enable it where the \
          build script depends on it: `stbn-build-support = {{ version = \"{}\", features = \
          [\"images\"] }}` under `[build-dependencies]`",
-        path.display(),
+        excerpt(&path.display().to_string()),
         env!("CARGO_PKG_VERSION")
     ))
 }
@@ -906,8 +928,9 @@ fn check_identifier(name: &str) -> Result<(), String> {
         && chars.all(|c| c == '_' || c.is_ascii_alphanumeric());
     if !identifier {
         Err(format!(
-            "{name:?} is not a Rust identifier: use ASCII letters, digits and `_`, \
-             not starting with a digit (the name becomes a static and a file name)"
+            "{} is not a Rust identifier: use ASCII letters, digits and `_`, \
+             not starting with a digit (the name becomes a static and a file name)",
+            quoted(name)
         ))
     } else if KEYWORDS.contains(&name) {
         Err(format!("{name:?} is a Rust keyword"))
@@ -977,7 +1000,7 @@ fn sigma_field(field: &str, has_sigma_time: bool) -> &'static str {
 
 /// `value` for a message: plain for everyday magnitudes (`-1`, `0.25`), in exponent notation
 /// for tiny and huge ones (`1e-200`, not two hundred digits).
-fn number(value: f64) -> String {
+pub(crate) fn number(value: f64) -> String {
     let magnitude = value.abs();
     if value == 0.0 || !value.is_finite() || (1e-4..1e16).contains(&magnitude) {
         value.to_string()
@@ -1028,16 +1051,30 @@ impl Source<'_> {
         use ron::Error as E;
 
         // ron may point at the blank before the offending token; step onto the token.
-        let start = self.map.next_token(
-            self.text,
-            self.map
-                .offset_of(self.text, error.span.start.line, error.span.start.col),
-        );
+        let token_at = |at: ron::error::Position| {
+            let offset = self.map.offset_of(self.text, at.line, at.col);
+            self.map.next_token(self.text, offset)
+        };
+        let mut start = token_at(error.span.start);
+        // A text that stops inside a bracket: ron's complaint about what it expected next (an
+        // opening `(` for a `Mask`, say) is about text that is not there. Said at the end.
+        let at_end = start.offset == self.text.len()
+            || (token_at(error.span.end).offset == self.text.len() && expects_more(&error.code));
+        let unclosed = at_end.then(|| SourceMap::unclosed(self.text)).flatten();
+        if unclosed.is_some() {
+            start = self.map.next_token(self.text, self.text.len());
+        }
         let (mut line, mut column, offset) = (start.line, start.col, start.offset);
         let located = self.map.locate(offset);
         let entry = located.and_then(|l| self.map.masks.get(l.mask));
         let mut field_index = located.and_then(|l| l.field);
         let (field, message) = match &error.code {
+            _ if let Some(unclosed) = unclosed => (
+                entry
+                    .zip(field_index)
+                    .map(|(entry, i)| entry.fields[i].name.clone()),
+                self.ends_early(unclosed),
+            ),
             E::NoSuchStructField {
                 expected, found, ..
             } => (
@@ -1069,7 +1106,7 @@ impl Source<'_> {
                 let field = entry
                     .zip(field_index)
                     .map(|(entry, i)| entry.fields[i].name.clone());
-                let ron_message = lowercase_first(&code.to_string());
+                let ron_message = lowercase_first(&shorten_quoted(&code.to_string()));
                 // ron reads `1.5` for an integer as `1` followed by a stray `.5`.
                 let fraction = match (code, entry, field_index) {
                     (E::ExpectedComma, Some(entry), Some(i))
@@ -1082,10 +1119,24 @@ impl Source<'_> {
                     }
                     _ => None,
                 };
+                let integer_range = match code {
+                    E::IntegerOutOfBounds => field
+                        .as_deref()
+                        .and_then(|f| integer_range(f, self.written_variant(entry, field_index))),
+                    _ => None,
+                };
                 let message = if (line, column) != (start.line, start.col) {
                     "expected `,` after this field's value".to_owned()
                 } else if let Some(value) = fraction {
-                    format!("expected an integer (this field takes whole numbers), found `{value}`")
+                    format!(
+                        "expected an integer (this field takes whole numbers), found {}",
+                        quote::backticked(value)
+                    )
+                } else if let Some(range) = integer_range {
+                    let (written, sign) = integer_at(self.text, offset);
+                    // Point at the sign ron steps over.
+                    column -= sign;
+                    format!("{range} (got {})", excerpt(written))
                 } else if let (false, Some(variants)) = (
                     matches!(code, E::NoSuchEnumVariant { .. }),
                     field.as_deref().and_then(enum_variants),
@@ -1112,6 +1163,96 @@ impl Source<'_> {
             message,
         }
     }
+
+    /// The message for a text that ends with `unclosed` still open.
+    fn ends_early(&self, unclosed: Unclosed) -> String {
+        let Unclosed { bracket, pos } = unclosed;
+        let of = if Some(pos) == self.map.list_start {
+            " of the `masks` list".to_owned()
+        } else {
+            match self.map.locate(pos.offset) {
+                Some(Located { mask, field: None }) if bracket == '(' => {
+                    format!(" of mask entry #{}", mask + 1)
+                }
+                _ => String::new(),
+            }
+        };
+        format!(
+            "the file ends early: the `{bracket}`{of} at line {}, column {} is never closed",
+            pos.line, pos.col
+        )
+    }
+
+    /// The variant name a field's value starts with (`Box` of `Box(70000)`), if any.
+    fn written_variant(&self, entry: Option<&MaskSource>, field: Option<usize>) -> Option<&str> {
+        let field = entry?.fields.get(field?)?;
+        let value = self.text.get(field.value.offset..field.value_end.offset)?;
+        let end = value
+            .find(|c: char| !(c == '_' || c.is_ascii_alphanumeric()))
+            .unwrap_or(value.len());
+        Some(&value[..end])
+    }
+}
+
+/// What an out-of-bounds integer in `field` must be, for the fields that hold integers;
+/// `variant` is the filter variant the value is written in (`Box`, `Binomial`).
+fn integer_range(field: &str, variant: Option<&str>) -> Option<String> {
+    Some(match (field, variant) {
+        ("seed", _) => format!("must be in 0..={}", u64::MAX),
+        ("size", _) => format!("each element must be in 1..={}", MaskSpec::MAX_AXIS),
+        ("assignment_passes", _) => {
+            format!("must be in 0..={}", VectorSpec::MAX_ASSIGNMENT_PASSES)
+        }
+        ("spatial_filter", Some("Box")) => {
+            format!("Box size must be in 1..={}", SpatialFilter::MAX_SIZE)
+        }
+        ("spatial_filter", Some("Binomial")) => {
+            format!("Binomial order must be in 1..={}", SpatialFilter::MAX_ORDER)
+        }
+        ("temporal_filter", Some("Box")) => {
+            format!("Box size must be in 1..={}", TemporalFilter::MAX_SIZE)
+        }
+        _ => return None,
+    })
+}
+
+/// The integer as written at byte `offset` of `text`, its sign included, and the length of a sign
+/// just before `offset` (ron points past it).
+fn integer_at(text: &str, offset: usize) -> (&str, usize) {
+    let sign = usize::from(text[..offset].ends_with(['-', '+']));
+    let end = text[offset..]
+        .find(|c: char| !(c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '+')))
+        .map_or(text.len(), |i| offset + i);
+    (&text[offset - sign..end], sign)
+}
+
+/// Whether ron's `code` says that more text was expected: at the end of the text, the text ended
+/// too early.
+fn expects_more(code: &ron::Error) -> bool {
+    use ron::Error as E;
+    matches!(
+        code,
+        E::Eof
+            | E::ExpectedArray
+            | E::ExpectedArrayEnd
+            | E::ExpectedBoolean
+            | E::ExpectedComma
+            | E::ExpectedChar
+            | E::ExpectedFloat
+            | E::ExpectedInteger
+            | E::ExpectedOption
+            | E::ExpectedOptionEnd
+            | E::ExpectedMap
+            | E::ExpectedMapColon
+            | E::ExpectedMapEnd
+            | E::ExpectedStructLike
+            | E::ExpectedNamedStructLike(_)
+            | E::ExpectedStructLikeEnd
+            | E::ExpectedUnit
+            | E::ExpectedString
+            | E::ExpectedStringEnd
+            | E::ExpectedIdentifier
+    )
 }
 
 /// The values of the enum-valued field `field`, for messages about malformed values.
@@ -1140,14 +1281,25 @@ fn enum_variants(field: &str) -> Option<&'static str> {
 /// a third of `found`'s length (at least 1; an edit inserts, deletes, replaces or swaps two
 /// neighbouring characters). Ties go to the earlier candidate.
 fn did_you_mean(found: &str, candidates: &[&str]) -> String {
-    let lower = found.to_lowercase();
-    let limit = (found.chars().count() / 3).max(1);
-    let closest = candidates
+    let length = found.chars().count();
+    let limit = (length / 3).max(1);
+    // No candidate whose length differs by more than the limit can be within it: a huge `found`
+    // costs nothing.
+    let near: Vec<&&str> = candidates
         .iter()
+        .filter(|c| c.chars().count().abs_diff(length) <= limit)
+        .collect();
+    if near.is_empty() {
+        return String::new();
+    }
+    let lower = found.to_lowercase();
+    let closest = near
+        .iter()
+        .copied()
         .find(|c| c.to_lowercase() == lower)
         .or_else(|| {
-            candidates
-                .iter()
+            near.iter()
+                .copied()
                 .map(|c| (edit_distance(&lower, &c.to_lowercase()), c))
                 .filter(|&(distance, _)| distance <= limit)
                 .min_by_key(|&(distance, _)| distance)

@@ -6,6 +6,24 @@
 //! knows less. It understands RON's comments (`//`, nested `/* */`), strings (with escapes, raw
 //! `r#"…"#` and byte strings), char literals, optional struct names (`Mask(…)`) and leading
 //! `#![enable(…)]` attributes.
+//!
+//! Its memory is bounded whatever the text: tokens are produced on demand and only the two around
+//! the cursor are kept, at most [`MAX_MASKS_SCANNED`] entries and [`MAX_FIELDS_SCANNED`] fields of
+//! each are recorded, and line starts are found by scanning when an error needs them. A manifest
+//! of millions of tokens (digits, brackets) costs time proportional to its length, not memory.
+
+use crate::Manifest;
+
+/// Most mask entries the scan records: one past [`Manifest::MAX_MASKS`], so the entry that breaks
+/// the limit can be named. Errors past it still carry their line and column.
+pub(crate) const MAX_MASKS_SCANNED: usize = Manifest::MAX_MASKS + 1;
+
+/// Most fields recorded per struct. A mask has 20 distinct fields and ron stops at the first
+/// unknown or repeated one, so no error it reports lies past the 21st.
+pub(crate) const MAX_FIELDS_SCANNED: usize = 64;
+
+/// Most open brackets [`SourceMap::unclosed`] remembers the place of; deeper ones are counted.
+const MAX_OPEN_TRACKED: usize = 256;
 
 /// A place in the text: byte offset plus the 1-based line and column (in `char`s) that ron uses.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -42,7 +60,7 @@ pub(crate) struct MaskSource {
     /// Byte offset just past the element's closing parenthesis (one past the end of the text if
     /// it is unclosed).
     pub end: usize,
-    /// Fields in source order.
+    /// Fields in source order (the first [`MAX_FIELDS_SCANNED`]).
     pub fields: Vec<FieldSource>,
     /// The `name` field's value when it is a string literal without escapes.
     pub name: Option<String>,
@@ -58,10 +76,10 @@ impl MaskSource {
 /// The located mask entries of a manifest text.
 #[derive(Debug)]
 pub(crate) struct SourceMap {
-    /// Elements of the `masks` list, in order.
+    /// Elements of the `masks` list, in order (the first [`MAX_MASKS_SCANNED`]).
     pub masks: Vec<MaskSource>,
-    /// Start of every line (byte offsets), for converting ron's line/column to offsets.
-    line_starts: Vec<usize>,
+    /// Start of the `masks` list's `[`, if there is one.
+    pub list_start: Option<Pos>,
 }
 
 /// What an offset falls in: a mask entry (by index) and possibly one of its fields (by index).
@@ -71,27 +89,34 @@ pub(crate) struct Located {
     pub field: Option<usize>,
 }
 
+/// A bracket that the text opens and never closes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Unclosed {
+    /// `(`, `[` or `{`.
+    pub bracket: char,
+    /// Where it is.
+    pub pos: Pos,
+}
+
 impl SourceMap {
     /// Scans `text`.
     pub fn scan(text: &str) -> SourceMap {
-        let tokens = tokenize(text);
-        let mut parser = Parser {
-            tokens: &tokens,
-            i: 0,
-            text_end: end_pos(text),
-        };
+        let mut parser = Parser::new(text);
+        let masks = parser.manifest();
         SourceMap {
-            masks: parser.manifest(),
-            line_starts: std::iter::once(0)
-                .chain(text.match_indices('\n').map(|(i, _)| i + 1))
-                .collect(),
+            masks,
+            list_start: parser.list_start,
         }
     }
 
     /// The byte offset of a 1-based line and char column of `text` (clamped to the text).
     pub fn offset_of(&self, text: &str, line: usize, col: usize) -> usize {
-        let Some(&start) = self.line_starts.get(line.saturating_sub(1)) else {
-            return text.len();
+        let start = match line {
+            0 | 1 => 0,
+            _ => match text.match_indices('\n').nth(line - 2) {
+                Some((i, _)) => i + 1,
+                None => return text.len(),
+            },
         };
         let line_text = text[start..].split('\n').next().unwrap_or_default();
         start
@@ -101,23 +126,12 @@ impl SourceMap {
                 .map_or(line_text.len(), |(i, _)| i)
     }
 
-    /// The position of `offset` (a char boundary of `text`).
-    fn pos_of(&self, text: &str, offset: usize) -> Pos {
-        let line = self.line_starts.partition_point(|&start| start <= offset);
-        let start = self.line_starts[line - 1];
-        Pos {
-            offset,
-            line,
-            col: text[start..offset].chars().count() + 1,
-        }
-    }
-
     /// The first position at or after `offset` (a char boundary of `text`) that is neither
     /// whitespace nor inside a comment: where the next token starts, or the end of the text.
     pub fn next_token(&self, text: &str, offset: usize) -> Pos {
         let mut cursor = Cursor {
             text,
-            pos: self.pos_of(text, offset),
+            pos: pos_of(text, offset),
         };
         cursor.skip_blank();
         cursor.pos
@@ -136,22 +150,59 @@ impl SourceMap {
             .position(|f| (f.key.offset..f.end).contains(&offset));
         Some(Located { mask, field })
     }
+
+    /// The innermost bracket `text` leaves open at its end, if any; `None` also when it is nested
+    /// deeper than the scan remembers places for.
+    pub fn unclosed(text: &str) -> Option<Unclosed> {
+        let mut open: Vec<Unclosed> = Vec::new();
+        let mut untracked = 0usize;
+        for token in Lexer::new(text) {
+            match token.kind {
+                Kind::Open(bracket) if open.len() < MAX_OPEN_TRACKED => open.push(Unclosed {
+                    bracket,
+                    pos: token.pos,
+                }),
+                Kind::Open(_) => untracked += 1,
+                Kind::Close(_) if untracked > 0 => untracked -= 1,
+                Kind::Close(_) => {
+                    open.pop();
+                }
+                _ => {}
+            }
+        }
+        if untracked > 0 { None } else { open.pop() }
+    }
 }
 
-#[derive(Clone, Debug, PartialEq)]
+/// The position of `offset` (a char boundary of `text`).
+fn pos_of(text: &str, offset: usize) -> Pos {
+    let before = &text[..offset];
+    let start = before.rfind('\n').map_or(0, |i| i + 1);
+    Pos {
+        offset,
+        line: 1 + before.matches('\n').count(),
+        col: before[start..].chars().count() + 1,
+    }
+}
+
+/// A token; identifiers and strings are byte ranges of the text.
+#[derive(Clone, Copy, Debug, PartialEq)]
 enum Kind {
     Open(char),
     Close(char),
     Comma,
     Colon,
-    Ident(String),
-    /// A string literal: `Some(content)` when it has no escapes (or is raw), else `None`.
-    Str(Option<String>),
-    /// Anything else: numbers, chars, `#`, `!`, unknown characters.
+    /// An identifier: the range of its name (without a raw identifier's `r#`).
+    Ident(usize, usize),
+    /// A string literal: the range of its content when it has no escapes (or is raw), else
+    /// `None`.
+    Str(Option<(usize, usize)>),
+    /// Anything else: numbers, chars, `#`, `!`, unknown characters. A number (`-1.5e-3`,
+    /// sixteen million digits) is one token.
     Other,
 }
 
-#[derive(Clone, Debug)]
+#[derive(Clone, Copy, Debug)]
 struct Token {
     kind: Kind,
     pos: Pos,
@@ -228,7 +279,7 @@ impl Cursor<'_> {
     }
 
     /// Reads a `"…"` string with escapes, the cursor being on the opening quote.
-    fn quoted(&mut self) -> Option<String> {
+    fn quoted(&mut self) -> Option<(usize, usize)> {
         self.bump();
         let start = self.pos.offset;
         let mut escaped = false;
@@ -243,12 +294,11 @@ impl Cursor<'_> {
                 Some(_) => {}
             }
         }
-        let content = &self.text[start..self.pos.offset - 1];
-        (!escaped).then(|| content.to_owned())
+        (!escaped).then_some((start, self.pos.offset - 1))
     }
 
     /// Reads a raw string `r#…#"…"#…#`, the cursor being on its first `#` or `"`.
-    fn raw(&mut self) -> Option<String> {
+    fn raw(&mut self) -> Option<(usize, usize)> {
         let mut hashes = 0;
         while self.peek() == Some('#') {
             self.bump();
@@ -261,7 +311,7 @@ impl Cursor<'_> {
             .collect();
         loop {
             if self.starts_with(&terminator) {
-                let content = self.text[start..self.pos.offset].to_owned();
+                let content = (start, self.pos.offset);
                 for _ in 0..terminator.len() {
                     self.bump();
                 }
@@ -285,12 +335,31 @@ impl Cursor<'_> {
         }
     }
 
-    fn ident(&mut self) -> String {
+    fn ident(&mut self) -> (usize, usize) {
         let start = self.pos.offset;
         while self.peek().is_some_and(is_ident_char) {
             self.bump();
         }
-        self.text[start..self.pos.offset].to_owned()
+        (start, self.pos.offset)
+    }
+
+    /// Skips the rest of a number: digits, `_`, `.`, an exponent's `e` after a digit and its
+    /// sign. A letter ends it (a suffix or a key written without a comma after the value is an
+    /// identifier of its own).
+    fn number_tail(&mut self, first: char) {
+        let mut previous = first;
+        while let Some(c) = self.peek() {
+            let continues = c.is_ascii_digit()
+                || c == '_'
+                || c == '.'
+                || (matches!(c, 'e' | 'E') && previous.is_ascii_digit())
+                || (matches!(c, '+' | '-') && matches!(previous, 'e' | 'E'));
+            if !continues {
+                return;
+            }
+            self.bump();
+            previous = c;
+        }
     }
 }
 
@@ -312,35 +381,45 @@ fn raw_string_at(cursor: &Cursor<'_>, prefix: usize) -> bool {
 }
 
 fn end_pos(text: &str) -> Pos {
-    Pos {
-        offset: text.len(),
-        line: 1 + text.matches('\n').count(),
-        col: 1 + text.rsplit('\n').next().unwrap_or_default().chars().count(),
+    pos_of(text, text.len())
+}
+
+/// The tokens of a text, one at a time.
+struct Lexer<'a> {
+    cursor: Cursor<'a>,
+}
+
+impl<'a> Lexer<'a> {
+    fn new(text: &'a str) -> Lexer<'a> {
+        let mut cursor = Cursor {
+            text,
+            pos: Pos {
+                offset: 0,
+                line: 1,
+                col: 1,
+            },
+        };
+        cursor.skip_blank();
+        Lexer { cursor }
     }
 }
 
-fn tokenize(text: &str) -> Vec<Token> {
-    let mut cursor = Cursor {
-        text,
-        pos: Pos {
-            offset: 0,
-            line: 1,
-            col: 1,
-        },
-    };
-    let mut tokens = Vec::new();
-    cursor.skip_blank();
-    while let Some(c) = cursor.peek() {
+impl Iterator for Lexer<'_> {
+    type Item = Token;
+
+    fn next(&mut self) -> Option<Token> {
+        let cursor = &mut self.cursor;
+        let c = cursor.peek()?;
         let pos = cursor.pos;
         let kind = if c == '"' {
             Kind::Str(cursor.quoted())
         } else if c == 'b' && cursor.peek_at(1) == Some('"') {
             cursor.bump();
             Kind::Str(cursor.quoted())
-        } else if c == 'r' && raw_string_at(&cursor, 1) {
+        } else if c == 'r' && raw_string_at(cursor, 1) {
             cursor.bump();
             Kind::Str(cursor.raw())
-        } else if cursor.starts_with("br") && raw_string_at(&cursor, 2) {
+        } else if cursor.starts_with("br") && raw_string_at(cursor, 2) {
             cursor.bump();
             cursor.bump();
             Kind::Str(cursor.raw())
@@ -351,9 +430,11 @@ fn tokenize(text: &str) -> Vec<Token> {
             // A raw identifier `r#name`.
             cursor.bump();
             cursor.bump();
-            Kind::Ident(cursor.ident())
+            let (start, end) = cursor.ident();
+            Kind::Ident(start, end)
         } else if is_ident_start(c) {
-            Kind::Ident(cursor.ident())
+            let (start, end) = cursor.ident();
+            Kind::Ident(start, end)
         } else {
             cursor.bump();
             match c {
@@ -361,41 +442,82 @@ fn tokenize(text: &str) -> Vec<Token> {
                 ')' | ']' | '}' => Kind::Close(c),
                 ',' => Kind::Comma,
                 ':' => Kind::Colon,
+                '0'..='9' | '-' | '+' | '.' => {
+                    cursor.number_tail(c);
+                    Kind::Other
+                }
                 _ => Kind::Other,
             }
         };
-        tokens.push(Token {
+        let token = Token {
             kind,
             pos,
             end: cursor.pos,
-        });
+        };
         cursor.skip_blank();
+        Some(token)
     }
-    tokens
 }
 
-struct Parser<'t> {
-    tokens: &'t [Token],
+/// A recursive-descent walk over the tokens. Nothing reads further back than the token before
+/// the cursor, so only the tokens from there on are kept.
+struct Parser<'a> {
+    text: &'a str,
+    lexer: Lexer<'a>,
+    /// Tokens `first..first + window.len()`.
+    window: std::collections::VecDeque<Token>,
+    first: usize,
+    /// The cursor: index of the current token.
     i: usize,
     text_end: Pos,
+    /// Start of the `masks` list's `[`.
+    list_start: Option<Pos>,
 }
 
-impl Parser<'_> {
-    fn kind(&self, i: usize) -> Option<&Kind> {
-        self.tokens.get(i).map(|t| &t.kind)
+impl<'a> Parser<'a> {
+    fn new(text: &'a str) -> Parser<'a> {
+        Parser {
+            text,
+            lexer: Lexer::new(text),
+            window: std::collections::VecDeque::new(),
+            first: 0,
+            i: 0,
+            text_end: end_pos(text),
+            list_start: None,
+        }
     }
 
-    fn pos(&self, i: usize) -> Pos {
-        self.tokens.get(i).map_or(self.text_end, |t| t.pos)
+    /// Token `i` (at least the one before the cursor), lexing up to it; `None` past the end.
+    fn token(&mut self, i: usize) -> Option<Token> {
+        let keep_from = self.i.saturating_sub(1).min(i);
+        while self.first < keep_from {
+            if self.window.pop_front().is_none() && self.lexer.next().is_none() {
+                return None;
+            }
+            self.first += 1;
+        }
+        while self.first + self.window.len() <= i {
+            let token = self.lexer.next()?;
+            self.window.push_back(token);
+        }
+        self.window.get(i.checked_sub(self.first)?).copied()
     }
 
-    fn end(&self, i: usize) -> Pos {
-        self.tokens.get(i).map_or(self.text_end, |t| t.end)
+    fn kind(&mut self, i: usize) -> Option<Kind> {
+        self.token(i).map(|t| t.kind)
+    }
+
+    fn pos(&mut self, i: usize) -> Pos {
+        self.token(i).map_or(self.text_end, |t| t.pos)
+    }
+
+    fn end(&mut self, i: usize) -> Pos {
+        self.token(i).map_or(self.text_end, |t| t.end)
     }
 
     /// Whether token `i` starts a `key:` pair.
-    fn is_key(&self, i: usize) -> bool {
-        matches!(self.kind(i), Some(Kind::Ident(_))) && self.kind(i + 1) == Some(&Kind::Colon)
+    fn is_key(&mut self, i: usize) -> bool {
+        matches!(self.kind(i), Some(Kind::Ident(..))) && self.kind(i + 1) == Some(Kind::Colon)
     }
 
     /// Skips one value starting at the cursor: up to (not including) the comma, closing bracket
@@ -408,7 +530,7 @@ impl Parser<'_> {
                 Kind::Close(_) if depth == 0 => return,
                 Kind::Close(_) => depth -= 1,
                 Kind::Comma if depth == 0 => return,
-                Kind::Ident(_) if depth == 0 && self.is_key(self.i) => return,
+                Kind::Ident(..) if depth == 0 && self.is_key(self.i) => return,
                 _ => {}
             }
             self.i += 1;
@@ -418,8 +540,8 @@ impl Parser<'_> {
     /// Consumes an optional struct name and an opening parenthesis; `false` (consuming nothing)
     /// if the cursor is not at a struct.
     fn open_struct(&mut self) -> bool {
-        let skip = usize::from(matches!(self.kind(self.i), Some(Kind::Ident(_))));
-        if self.kind(self.i + skip) == Some(&Kind::Open('(')) {
+        let skip = usize::from(matches!(self.kind(self.i), Some(Kind::Ident(..))));
+        if self.kind(self.i + skip) == Some(Kind::Open('(')) {
             self.i += skip + 1;
             true
         } else {
@@ -427,10 +549,11 @@ impl Parser<'_> {
         }
     }
 
-    /// The fields of a struct whose opening parenthesis has been consumed, and the byte offset
-    /// just past its closing parenthesis (one past the end of the text if it has none); leaves
-    /// the cursor past the closing parenthesis. `on_field` sees each field with the cursor at its
-    /// value and may consume the value itself (it is skipped otherwise).
+    /// The fields of a struct whose opening parenthesis has been consumed (the first
+    /// [`MAX_FIELDS_SCANNED`]), and the byte offset just past its closing parenthesis (one past
+    /// the end of the text if it has none); leaves the cursor past the closing parenthesis.
+    /// `on_field` sees each field with the cursor at its value and may consume the value itself
+    /// (it is skipped otherwise).
     fn struct_fields(
         &mut self,
         mut on_field: impl FnMut(&mut Self, &str),
@@ -440,10 +563,12 @@ impl Parser<'_> {
             match kind {
                 Kind::Close(_) => {
                     self.i += 1;
-                    return (fields, self.pos(self.i - 1).offset + 1);
+                    let close = self.pos(self.i - 1);
+                    return (fields, close.offset + 1);
                 }
-                Kind::Ident(name) if self.is_key(self.i) => {
-                    let name = name.clone();
+                Kind::Ident(start, end) if self.is_key(self.i) => {
+                    let text = self.text;
+                    let name = &text[start..end];
                     let key = self.pos(self.i);
                     self.i += 2;
                     let value =
@@ -453,29 +578,31 @@ impl Parser<'_> {
                             self.pos(self.i)
                         };
                     let before = self.i;
-                    on_field(self, &name);
+                    on_field(self, name);
                     if self.i == before {
                         self.skip_value();
                     }
                     // The last token of the value, or the colon.
                     let value_end = self.end(self.i - 1);
                     let mut end = self.end_at_cursor();
-                    if self.kind(self.i) == Some(&Kind::Comma) {
+                    if self.kind(self.i) == Some(Kind::Comma) {
                         self.i += 1;
                         end = self.pos(self.i - 1).offset + 1;
                     }
-                    fields.push(FieldSource {
-                        name,
-                        key,
-                        value,
-                        value_end,
-                        end,
-                    });
+                    if fields.len() < MAX_FIELDS_SCANNED {
+                        fields.push(FieldSource {
+                            name: name.to_owned(),
+                            key,
+                            value,
+                            value_end,
+                            end,
+                        });
+                    }
                 }
                 _ => {
                     // Not a `key:` (or a key without its colon): recover at the next comma or key.
                     self.skip_value();
-                    if self.kind(self.i) == Some(&Kind::Comma) {
+                    if self.kind(self.i) == Some(Kind::Comma) {
                         self.i += 1;
                     }
                 }
@@ -486,20 +613,19 @@ impl Parser<'_> {
 
     /// The offset of the token at the cursor, or one past the end of the text at the end (so a
     /// range ending there contains errors ron reports at the very end).
-    fn end_at_cursor(&self) -> usize {
-        if self.i < self.tokens.len() {
-            self.pos(self.i).offset
-        } else {
-            self.text_end.offset + 1
+    fn end_at_cursor(&mut self) -> usize {
+        match self.token(self.i) {
+            Some(token) => token.pos.offset,
+            None => self.text_end.offset + 1,
         }
     }
 
     /// The top level: attributes, then the manifest struct; returns the `masks` elements.
     fn manifest(&mut self) -> Vec<MaskSource> {
         // `#![enable(…)]` attributes: `#`, `!`, then a bracketed group.
-        while self.kind(self.i) == Some(&Kind::Other) {
+        while self.kind(self.i) == Some(Kind::Other) {
             self.i += 1;
-            if self.kind(self.i) == Some(&Kind::Open('[')) {
+            if self.kind(self.i) == Some(Kind::Open('[')) {
                 self.i += 1;
                 self.skip_value();
                 self.i += 1;
@@ -508,7 +634,9 @@ impl Parser<'_> {
         let mut masks = Vec::new();
         if self.open_struct() {
             self.struct_fields(|parser, name| {
-                if name == "masks" && parser.kind(parser.i) == Some(&Kind::Open('[')) {
+                if name == "masks" && parser.kind(parser.i) == Some(Kind::Open('[')) {
+                    let start = parser.pos(parser.i);
+                    parser.list_start.get_or_insert(start);
                     parser.i += 1;
                     parser.mask_list(&mut masks);
                 }
@@ -517,7 +645,8 @@ impl Parser<'_> {
         masks
     }
 
-    /// The elements of the `masks` list, its `[` consumed; leaves the cursor past the `]`.
+    /// The elements of the `masks` list, its `[` consumed (the first [`MAX_MASKS_SCANNED`]);
+    /// leaves the cursor past the `]`.
     fn mask_list(&mut self, masks: &mut Vec<MaskSource>) {
         while let Some(kind) = self.kind(self.i) {
             match kind {
@@ -531,21 +660,23 @@ impl Parser<'_> {
                     if self.open_struct() {
                         let mut name = None;
                         let (fields, end) = self.struct_fields(|parser, field| {
-                            if let (true, Some(Kind::Str(Some(value)))) =
+                            if let (true, Some(Kind::Str(Some((from, to))))) =
                                 (field == "name", parser.kind(parser.i))
                             {
-                                name = Some(value.clone());
+                                name = Some((from, to));
                             }
                         });
-                        masks.push(MaskSource {
-                            start,
-                            end,
-                            fields,
-                            name,
-                        });
+                        if masks.len() < MAX_MASKS_SCANNED {
+                            masks.push(MaskSource {
+                                start,
+                                end,
+                                fields,
+                                name: name.map(|(from, to)| self.text[from..to].to_owned()),
+                            });
+                        }
                     } else {
                         self.skip_value();
-                        if self.i < self.tokens.len()
+                        if self.token(self.i).is_some()
                             && !matches!(self.kind(self.i), Some(Kind::Comma | Kind::Close(_)))
                         {
                             self.i += 1;
@@ -662,6 +793,59 @@ mod tests {
         assert_eq!((pos.line, pos.col), (3, 5));
         assert_eq!(&text[pos.offset..], "1)");
         assert_eq!(map.next_token(text, text.len()).offset, text.len());
+    }
+
+    #[test]
+    fn numbers_are_one_token_and_a_key_after_one_is_still_found() {
+        let text = "(masks: [(seed: -1kind: Scalar, sigma: 1.5e-3, size: (1_000, 0x1F, 2))])";
+        let map = SourceMap::scan(text);
+        let names: Vec<_> = map.masks[0]
+            .fields
+            .iter()
+            .map(|f| f.name.as_str())
+            .collect();
+        assert_eq!(names, ["seed", "kind", "sigma", "size"]);
+        let sigma = map.masks[0].field("sigma").unwrap();
+        assert_eq!(&text[sigma.value.offset..sigma.value_end.offset], "1.5e-3");
+        let mut lexer = Lexer::new("-12345678901234567890.5e+3,");
+        assert_eq!(lexer.next().unwrap().end.offset, 26);
+        assert_eq!(lexer.next().unwrap().kind, Kind::Comma);
+        assert!(lexer.next().is_none());
+    }
+
+    #[test]
+    fn what_the_scan_records_is_bounded() {
+        let many = format!("(masks: [{}])", "(),".repeat(MAX_MASKS_SCANNED + 500));
+        let map = SourceMap::scan(&many);
+        assert_eq!(map.masks.len(), MAX_MASKS_SCANNED);
+        assert_eq!(map.list_start.map(|p| p.col), Some(9));
+        let fields: String = (0..MAX_FIELDS_SCANNED + 10)
+            .map(|i| format!("f{i}: {i}, "))
+            .collect();
+        let wide = format!("(masks: [({fields}), (name: \"b\")])");
+        let map = SourceMap::scan(&wide);
+        assert_eq!(map.masks[0].fields.len(), MAX_FIELDS_SCANNED);
+        assert_eq!(map.masks[1].name.as_deref(), Some("b"));
+        // Only the two tokens around the cursor are kept, however long the text.
+        let mut parser = Parser::new(&many);
+        parser.manifest();
+        assert!(parser.window.len() <= 3, "{}", parser.window.len());
+    }
+
+    #[test]
+    fn the_innermost_open_bracket_is_found() {
+        let unclosed = |text: &str| SourceMap::unclosed(text).map(|u| (u.bracket, u.pos.col));
+        assert_eq!(unclosed("(masks: ["), Some(('[', 9)));
+        assert_eq!(
+            unclosed("(masks: [(a: (1, 2), b: \"(\" // (\n"),
+            Some(('(', 10))
+        );
+        assert_eq!(unclosed("(masks: [])"), None);
+        assert_eq!(unclosed(""), None);
+        // Deeper than the places kept: no claim about which one.
+        let deep = "(".repeat(MAX_OPEN_TRACKED + 1);
+        assert_eq!(unclosed(&deep), None);
+        assert_eq!(unclosed(&format!("{deep})")), Some(('(', MAX_OPEN_TRACKED)));
     }
 
     #[test]

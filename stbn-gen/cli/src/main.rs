@@ -18,6 +18,7 @@ macro_rules! errln {
 }
 
 mod analyze;
+mod cache;
 mod generate;
 mod ktx2;
 mod output;
@@ -113,6 +114,10 @@ enum Command {
         #[arg(long, value_enum, value_delimiter = ',')]
         only: Vec<tradeoff::Knob>,
     },
+    /// Show the build-script blob cache (entries by last use, sizes, orphaned temporary files)
+    /// and prune it: `--prune-to SIZE` removes the least recently used entries, `--older-than
+    /// DAYS` those unused that long; `--keep MANIFEST` protects a manifest's entries.
+    Cache(cache::Args),
 }
 
 /// `--swaps-per-pixel`: a finite number in the range both swap optimisers accept.
@@ -139,6 +144,7 @@ fn main() -> ExitCode {
             baselines,
         } => analyze::run(&dirs, &out, baselines),
         Command::Tradeoff { out, quick, only } => tradeoff::run(&out, quick, &only),
+        Command::Cache(args) => cache::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
