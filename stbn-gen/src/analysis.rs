@@ -406,7 +406,7 @@ pub fn spectrum_fold(width: usize, height: usize) -> (usize, usize) {
 fn smallest_factor(n: usize) -> usize {
     (2..)
         .take_while(|f| f * f <= n)
-        .find(|f| n % f == 0)
+        .find(|f| n.is_multiple_of(*f))
         .unwrap_or(n)
 }
 

@@ -175,7 +175,7 @@ fn the_documented_limits_fold_and_window_as_stated() {
         assert_eq!(spectrum_fold(w, d), xz, "{size:?} XZ");
         assert_eq!(default.window(w, h), window, "{size:?} window");
         for (a, b, (fa, fb)) in [(w, h, xy), (w, d, xz)] {
-            assert!(a % fa == 0 && b % fb == 0);
+            assert!(a.is_multiple_of(fa) && b.is_multiple_of(fb));
             assert!((a / fa) * (b / fb) <= MAX_SPECTRUM_PLANE, "{size:?}");
         }
     }

@@ -127,7 +127,7 @@ impl FilteredErrorOptions {
         let cut = |len: usize| {
             if width * height > MAX_FILTERED_FRAME
                 && len > Self::WINDOW_SIDE
-                && Self::WINDOW_SIDE + 2 * radius < len
+                && Self::WINDOW_SIDE.saturating_add(radius.saturating_mul(2)) < len
             {
                 Self::WINDOW_SIDE
             } else {
@@ -408,7 +408,7 @@ fn unit_direction(rng: &mut ChaCha8Rng, d: usize) -> Vec<f64> {
 /// The normalised 1D Gaussian `wᵢ ∝ exp(−i² / (2σ²))`, `i ∈ −r..=r` with `r = ⌈4σ⌉`; entry
 /// `i + r`.
 pub fn gaussian_weights(sigma: f64) -> Vec<f64> {
-    let radius = gaussian_weights_radius(sigma) as isize;
+    let radius = (4.0 * sigma).ceil() as isize;
     let weights: Vec<f64> = (-radius..=radius)
         .map(|i| (-((i * i) as f64) / (2.0 * sigma * sigma)).exp())
         .collect();
