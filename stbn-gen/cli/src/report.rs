@@ -738,7 +738,7 @@ fn partial_section(text: &mut String, rows: &[Row]) {
     }
     text.push_str(
         "\n## Masks measured in part\n\n\
-         Large masks are measured within a bounded memory: frames (and x–frame planes) of more \
+         Large masks are measured in bounded memory: frames (and x–frame planes) of more \
          than 2²² pixels are folded before their DFT, which gives the spectrum exactly at every \
          k-th frequency of each folded axis (no crop, no leakage); the filtered error of frames \
          of more than 2²⁰ pixels is averaged over a window at the frame's origin whose pixels \
