@@ -155,6 +155,27 @@
 //!   midpoints `(i + ½) / D`), about `0.87 / √D` for white noise, and in between for sequences that
 //!   stratify over time.
 //!
+//! # Large fields
+//!
+//! Every measure holds a bounded amount of memory beside the field it reads, whatever the
+//! field's size and the thread count: parallel tasks run in batches that fit 256 MiB
+//! (partial sums are still added in task order, so the bits do not depend on the batches), and
+//! two measures work on part of a large field, exactly and in the same units:
+//!
+//! - **Folded spectra.** A plane (a slice, or an x–frame plane of [`dft_xz_image`]) of more
+//!   than [`MAX_SPECTRUM_PLANE`] pixels is folded before its DFT ([`spectrum_fold`]): values
+//!   at `x mod (width / fx)` are summed, which on a periodic plane gives the DFT exactly at
+//!   every `fx`-th frequency, so the spectra, low band and images are those of the whole plane
+//!   on a coarser grid of frequencies. A 4096 × 4096 slice is measured on the 2048 × 2048 grid
+//!   of every second frequency.
+//! - **Windowed filtered error.** Frames of more than [`MAX_FILTERED_FRAME`] pixels average
+//!   the filtered error over a window of at most 1024 pixels per axis
+//!   ([`FilteredErrorOptions::window`]), whose pixels are blurred with their true neighbours
+//!   from the whole frame.
+//!
+//! Below those sizes (spectra of frames up to 2048 × 2048 pixels, the filtered error of frames
+//! up to 1024 × 1024) every figure is of the whole field.
+//!
 //! # Vector masks
 //!
 //! A vector mask ([`VectorField`]) is measured in its own space, not on its stored channels
@@ -189,7 +210,10 @@ mod vector;
 pub use convergence::{Convergence, ConvergenceOptions, Integrand, convergence};
 pub use convergence2d::{Integrand2D, convergence_2d, toroidal_shift};
 pub use dft::{SpectrumImage, dft_xy_image, dft_xz_image};
-pub use filtered::{FilteredErrorOptions, filtered_error, filtered_error_vector, gaussian_weights};
+pub use filtered::{
+    FilteredErrorOptions, MAX_FILTERED_FRAME, filtered_error, filtered_error_vector,
+    gaussian_weights,
+};
 pub use histogram::{pixel_histogram_deviation, slice_histogram_deviation};
 pub use vector::{
     DistributionDeviation, TestFunction, VectorField, distribution_deviation, vector_convergence,
@@ -352,12 +376,50 @@ impl fmt::Display for FieldError {
 
 impl std::error::Error for FieldError {}
 
+/// Most pixels of one plane (a slice, or one x–frame plane of [`dft_xz_image`]) whose 2D
+/// spectrum is taken at every frequency. A larger plane is folded first ([`spectrum_fold`]), so
+/// one plane's transform holds at most 64 MiB of complex values: the spectra of a 4096 × 4096
+/// slice cost what a 2048 × 2048 one does.
+pub const MAX_SPECTRUM_PLANE: usize = 1 << 22;
+
+/// How a `width × height` plane is folded before its 2D DFT: factors `(fx, fy)` dividing
+/// `width` and `height`, `(1, 1)` for planes of at most [`MAX_SPECTRUM_PLANE`] pixels.
+///
+/// Folding sums the values at `x mod (width / fx)`, `y mod (height / fy)`; on a periodic plane
+/// the DFT of the folded plane is **exactly** the DFT of the whole plane at every `fx`-th
+/// frequency along x and every `fy`-th along y (no leakage, unlike a crop), so the spectra of
+/// a folded plane are those of the whole plane on a coarser grid of frequencies. The longer
+/// remaining axis is folded by its smallest prime factor until the plane fits.
+pub fn spectrum_fold(width: usize, height: usize) -> (usize, usize) {
+    let (mut fx, mut fy) = (1, 1);
+    while (width / fx) * (height / fy) > MAX_SPECTRUM_PLANE {
+        if width / fx >= height / fy {
+            fx *= smallest_factor(width / fx);
+        } else {
+            fy *= smallest_factor(height / fy);
+        }
+    }
+    (fx, fy)
+}
+
+/// The smallest prime factor of `n ≥ 2`.
+fn smallest_factor(n: usize) -> usize {
+    (2..)
+        .take_while(|f| f * f <= n)
+        .find(|f| n.is_multiple_of(*f))
+        .unwrap_or(n)
+}
+
 /// Mean normalised power ([module docs](self)) over the spatial low band, averaged over slices.
 ///
 /// Dimensionless, `≥ 0`: about 1 for white noise, near 0 for a mask that is blue within each
-/// slice. `None` for `1 × 1` slices (no non-zero spatial frequency).
+/// slice. `None` for `1 × 1` slices (no non-zero spatial frequency). Slices over
+/// [`MAX_SPECTRUM_PLANE`] pixels average the band's frequencies on the grid of
+/// [`spectrum_fold`].
 pub fn spatial_low_band(field: &Field) -> Option<f64> {
     let (w, h) = (field.width, field.height);
+    let (fold_x, fold_y) = spectrum_fold(w, h);
+    let (gw, gh) = (w / fold_x, h / fold_y);
     let power = spatial_power(field);
     // |ν| ≤ 1/m  ⇔  m² · ((fx·h)² + (fy·w)²) ≤ (w·h)², exact in integers (the values fit in memory, so
     // w·h < 2^61 and every term stays below 2^128).
@@ -365,13 +427,13 @@ pub fn spatial_low_band(field: &Field) -> Option<f64> {
     let limit = ((w * h) as u128).pow(2);
     let mut sum = 0.0;
     let mut count = 0usize;
-    for fy in 0..h {
-        let sy = wrapped(fy, h).unsigned_abs() as u128 * w as u128;
-        for fx in 0..w {
-            let sx = wrapped(fx, w).unsigned_abs() as u128 * h as u128;
+    for fy in 0..gh {
+        let sy = (wrapped(fy, gh).unsigned_abs() * fold_y) as u128 * w as u128;
+        for fx in 0..gw {
+            let sx = (wrapped(fx, gw).unsigned_abs() * fold_x) as u128 * h as u128;
             let r2 = sx * sx + sy * sy;
             if r2 > 0 && m * m * r2 <= limit {
-                sum += power[fy * w + fx];
+                sum += power[fy * gw + fx];
                 count += 1;
             }
         }
@@ -397,26 +459,36 @@ pub fn temporal_low_band(field: &Field) -> Option<f64> {
 /// `width · height` values, index `fy · width + fx` with unwrapped DFT indices `fx ∈ 0..width`,
 /// `fy ∈ 0..height` (so DC is at index 0, not centred). Dimensionless; the DC entry is 0. For a
 /// field with no constant slice the mean of the non-DC entries is exactly 1 (up to rounding).
+///
+/// Slices over [`MAX_SPECTRUM_PLANE`] pixels are folded by `(fx, fy) =`
+/// [`spectrum_fold`]: the result is then `(width / fx) · (height / fy)` values, entry
+/// `i · (width / fx) + j` holding the power at frequency `(j · fx, i · fy)`, exactly.
 pub fn spatial_power(field: &Field) -> Vec<f64> {
-    let (w, h) = (field.width, field.height);
-    let n = w * h;
+    let (w, h, d) = (field.width, field.height, field.depth);
+    let (fold_x, fold_y) = spectrum_fold(w, h);
+    let (gw, gh) = (w / fold_x, h / fold_y);
+    let n = gw * gh;
     let mut planner = FftPlanner::<f64>::new();
-    let fft_x = planner.plan_fft_forward(w);
-    let fft_y = planner.plan_fft_forward(h);
-    let slices: Vec<usize> = (0..field.depth).collect();
-    let mut sum = sum_in_order(
-        slices
-            .par_chunks(field.depth.div_ceil(TASKS))
-            .map(|slices| {
-                let mut sum = vec![0.0; n];
-                for &z in slices {
-                    add_slice_spectrum(field.slice(z), w, h, &*fft_x, &*fft_y, &mut sum, |p| p);
-                }
-                sum
-            }),
-        n,
-    );
-    let depth = field.depth as f64;
+    let fft_x = planner.plan_fft_forward(gw);
+    let fft_y = planner.plan_fft_forward(gh);
+    let chunk = d.div_ceil(TASKS);
+    let mut sum = sum_tasks_in_order(d.div_ceil(chunk), PLANE_TASK_BYTES * n, n, |task| {
+        let mut sum = vec![0.0; n];
+        for z in task * chunk..((task + 1) * chunk).min(d) {
+            let slice = field.slice(z);
+            let row = |y: usize| &slice[y * w..(y + 1) * w];
+            add_plane_spectrum(
+                &row,
+                (w, h),
+                (fold_x, fold_y),
+                (&*fft_x, &*fft_y),
+                &mut sum,
+                |p| p,
+            );
+        }
+        sum
+    });
+    let depth = d as f64;
     sum.iter_mut().for_each(|p| *p /= depth);
     sum
 }
@@ -428,27 +500,37 @@ pub fn spatial_power(field: &Field) -> Vec<f64> {
 /// `r − ½ ≤ √(fx² + fy²) < r + ½`. Entries run from `r = 0` (DC, always 0) to the corner
 /// frequency `round(L · |ν|max)`, about `0.71 · L`; rings beyond `L / 2` hold only the corners.
 /// Dimensionless; white noise gives about 1 at every `r > 0`. Every ring holds at least one
-/// frequency.
+/// frequency. Slices over [`MAX_SPECTRUM_PLANE`] pixels use the grid of [`spectrum_fold`], and
+/// `L` is then [`radial_rings_per_cycle`], the longer side of that grid.
 pub fn radial_spectrum(field: &Field) -> Vec<f64> {
     let (w, h) = (field.width, field.height);
+    let (fold_x, fold_y) = spectrum_fold(w, h);
+    let (gw, gh) = (w / fold_x, h / fold_y);
     let power = spatial_power(field);
-    let long = w.max(h) as f64;
+    let long = gw.max(gh) as f64;
     let radius = |fx: usize, fy: usize| {
-        let nx = wrapped(fx, w) as f64 / w as f64;
-        let ny = wrapped(fy, h) as f64 / h as f64;
+        let nx = wrapped(fx, gw) as f64 / gw as f64;
+        let ny = wrapped(fy, gh) as f64 / gh as f64;
         (long * nx.hypot(ny)).round() as usize
     };
-    let rings = radius(w / 2, h / 2) + 1;
+    let rings = radius(gw / 2, gh / 2) + 1;
     let mut sum = vec![0.0; rings];
     let mut count = vec![0usize; rings];
-    for fy in 0..h {
-        for fx in 0..w {
+    for fy in 0..gh {
+        for fx in 0..gw {
             let r = radius(fx, fy);
-            sum[r] += power[fy * w + fx];
+            sum[r] += power[fy * gw + fx];
             count[r] += 1;
         }
     }
     sum.iter().zip(&count).map(|(s, &c)| s / c as f64).collect()
+}
+
+/// `L` of [`radial_spectrum`] for `width × height` slices: ring `r` is at `r / L` cycles per
+/// pixel. `max(width, height)`, or the longer side of the folded grid ([`spectrum_fold`]).
+pub fn radial_rings_per_cycle(width: usize, height: usize) -> usize {
+    let (fold_x, fold_y) = spectrum_fold(width, height);
+    (width / fold_x).max(height / fold_y)
 }
 
 /// The mean normalised power of every pixel's series over the frames, per temporal frequency.
@@ -457,48 +539,73 @@ pub fn radial_spectrum(field: &Field) -> Vec<f64> {
 /// negative frequencies mirror these). Dimensionless; entry 0 is 0, and white noise gives about 1
 /// elsewhere.
 pub fn temporal_spectrum(field: &Field) -> Vec<f64> {
-    /// Pixels whose series one task transforms together.
-    const CHUNK: usize = 1024;
     let (d, n) = (field.depth, field.slice_pixels());
     let bins = d / 2 + 1;
+    // Pixels whose series one task transforms together: 1024 up to 1024 frames (16 MiB), fewer
+    // for longer series so a task's buffer stays at 16 MiB.
+    let chunk = if d <= 1024 { 1024 } else { (1 << 20) / d };
     let fft = FftPlanner::<f64>::new().plan_fft_forward(d);
-    let starts: Vec<usize> = (0..n).step_by(CHUNK).collect();
-    let sum = sum_in_order(
-        starts.into_par_iter().map(|start| {
-            let pixels = CHUNK.min(n - start);
-            let mut buffer = Vec::with_capacity(pixels * d);
-            for p in start..start + pixels {
-                buffer.extend((0..d).map(|z| Complex::new(field.values[z * n + p], 0.0)));
-            }
-            let mut sum = vec![0.0; bins];
-            for series in buffer.chunks_exact_mut(d) {
-                if let Some(scale) = normalise(series) {
-                    fft.process(series);
-                    for (s, c) in sum.iter_mut().zip(&series[..bins]).skip(1) {
-                        *s += c.norm_sqr() * scale;
-                    }
+    let task_bytes = 16 * chunk * d + 16 * bins;
+    let sum = sum_tasks_in_order(n.div_ceil(chunk), task_bytes, bins, |task| {
+        let start = task * chunk;
+        let pixels = chunk.min(n - start);
+        let mut buffer = Vec::with_capacity(pixels * d);
+        for p in start..start + pixels {
+            buffer.extend((0..d).map(|z| Complex::new(field.values[z * n + p], 0.0)));
+        }
+        let mut sum = vec![0.0; bins];
+        for series in buffer.chunks_exact_mut(d) {
+            if let Some(scale) = normalise(series) {
+                fft.process(series);
+                for (s, c) in sum.iter_mut().zip(&series[..bins]).skip(1) {
+                    *s += c.norm_sqr() * scale;
                 }
             }
-            sum
-        }),
-        bins,
-    );
+        }
+        sum
+    });
     sum.into_iter().map(|s| s / n as f64).collect()
 }
 
-/// Most parallel tasks [`spatial_power`] and the [`dft`] images split their images into (bounding
-/// their memory to this many spectra).
+/// Most parallel tasks [`spatial_power`] and the [`dft`] images split their planes into.
 const TASKS: usize = 16;
 
-/// The element-wise sum of `parts`, added in task order whatever the thread count, so every
-/// measure is bit-for-bit reproducible.
-fn sum_in_order(parts: impl IndexedParallelIterator<Item = Vec<f64>>, len: usize) -> Vec<f64> {
-    let parts: Vec<Vec<f64>> = parts.collect();
+/// Bytes per (folded) plane pixel one task of [`spatial_power`] or the [`dft`] images holds:
+/// the transform's two complex buffers (32), its sum and the sum handed back (16).
+const PLANE_TASK_BYTES: usize = 48;
+
+/// Bytes the tasks of one measure may hold at once (their buffers and the partial sums waiting
+/// to be added): more tasks wait for the next batch, so a measure's memory does not grow with
+/// the thread count. Every task of the masks the report usually sees fits in one batch.
+pub(crate) const MEMORY_BUDGET: usize = 256 << 20;
+
+/// The element-wise sum of `task(0) … task(tasks − 1)` (each `len` values, holding about
+/// `task_bytes` while it runs), added in task order whatever the thread count, so every measure
+/// is bit-for-bit reproducible. Tasks run in parallel in batches of at most
+/// [`MEMORY_BUDGET`] / `task_bytes` (at least one).
+fn sum_tasks_in_order(
+    tasks: usize,
+    task_bytes: usize,
+    len: usize,
+    task: impl Fn(usize) -> Vec<f64> + Sync + Send,
+) -> Vec<f64> {
+    let batch = batch_size(task_bytes);
     let mut sum = vec![0.0; len];
-    for part in &parts {
-        sum.iter_mut().zip(part).for_each(|(s, p)| *s += p);
+    for first in (0..tasks).step_by(batch) {
+        let parts: Vec<Vec<f64>> = (first..(first + batch).min(tasks))
+            .into_par_iter()
+            .map(&task)
+            .collect();
+        for part in &parts {
+            sum.iter_mut().zip(part).for_each(|(s, p)| *s += p);
+        }
     }
     sum
+}
+
+/// Tasks of `task_bytes` each that fit in [`MEMORY_BUDGET`] at once, at least one.
+pub(crate) fn batch_size(task_bytes: usize) -> usize {
+    (MEMORY_BUDGET / task_bytes.max(1)).max(1)
 }
 
 /// The signed frequency of DFT index `f` of an axis of length `len`, in `(−len/2, len/2]`.
@@ -527,34 +634,65 @@ fn normalise(series: &mut [Complex<f64>]) -> Option<f64> {
     (squares > 0.0).then(|| (n - 1.0) / (n * squares))
 }
 
-/// Adds `map(P(f))` of the normalised 2D power `P` of one `w × h` slice to `sum` (index
-/// `fy · w + fx`), leaving DC alone. A constant slice adds nothing.
-fn add_slice_spectrum(
-    slice: &[f64],
-    w: usize,
-    h: usize,
-    fft_x: &dyn Fft<f64>,
-    fft_y: &dyn Fft<f64>,
+/// Adds `map(P(f))` of the normalised 2D power `P` of one `w × h` plane (row `y` is `row(y)`,
+/// `w` values) to `sum`, leaving DC alone; a constant plane adds nothing. Folded by
+/// `(fx, fy)` ([`spectrum_fold`]): `sum` and the transforms `(fft_x, fft_y)` are then of the
+/// `(w / fx) × (h / fy)` grid, index `j · (w / fx) + i` for grid frequency `(i, j)`.
+fn add_plane_spectrum<'a>(
+    row: &dyn Fn(usize) -> &'a [f64],
+    (w, h): (usize, usize),
+    (fold_x, fold_y): (usize, usize),
+    (fft_x, fft_y): (&dyn Fft<f64>, &dyn Fft<f64>),
     sum: &mut [f64],
     map: impl Fn(f64) -> f64,
 ) {
-    let mut rows: Vec<Complex<f64>> = slice.iter().map(|&v| Complex::new(v, 0.0)).collect();
-    let Some(scale) = normalise(&mut rows) else {
-        return;
+    let (gw, gh) = (w / fold_x, h / fold_y);
+    let (rows, scale) = if (fold_x, fold_y) == (1, 1) {
+        let mut rows: Vec<Complex<f64>> = (0..h)
+            .flat_map(|y| row(y).iter().map(|&v| Complex::new(v, 0.0)))
+            .collect();
+        let Some(scale) = normalise(&mut rows) else {
+            return;
+        };
+        (rows, scale)
+    } else {
+        // The mean and variance of the whole plane, then its values less the mean, folded.
+        let first = row(0)[0];
+        if (0..h).all(|y| row(y).iter().all(|&v| v == first)) {
+            return;
+        }
+        let n = (w * h) as f64;
+        let mean = (0..h).map(|y| row(y).iter().sum::<f64>()).sum::<f64>() / n;
+        let mut squares = 0.0;
+        let mut rows = vec![Complex::default(); gw * gh];
+        for y in 0..h {
+            let folded = &mut rows[(y % gh) * gw..(y % gh + 1) * gw];
+            for (x, &v) in row(y).iter().enumerate() {
+                let c = v - mean;
+                squares += c * c;
+                folded[x % gw].re += c;
+            }
+        }
+        if squares <= 0.0 {
+            return;
+        }
+        (rows, (n - 1.0) / (n * squares))
     };
+    let mut rows = rows;
     fft_x.process(&mut rows);
     // Transpose so every column is contiguous, then transform the columns.
-    let mut columns = vec![Complex::default(); w * h];
-    for (y, row) in rows.chunks_exact(w).enumerate() {
+    let mut columns = vec![Complex::default(); gw * gh];
+    for (y, row) in rows.chunks_exact(gw).enumerate() {
         for (x, &c) in row.iter().enumerate() {
-            columns[x * h + y] = c;
+            columns[x * gh + y] = c;
         }
     }
+    drop(rows);
     fft_y.process(&mut columns);
-    for (fx, column) in columns.chunks_exact(h).enumerate() {
+    for (fx, column) in columns.chunks_exact(gh).enumerate() {
         for (fy, c) in column.iter().enumerate() {
             if fx != 0 || fy != 0 {
-                sum[fy * w + fx] += map(c.norm_sqr() * scale);
+                sum[fy * gw + fx] += map(c.norm_sqr() * scale);
             }
         }
     }
@@ -690,6 +828,65 @@ mod tests {
                 "{w}x{h}: {rings:?}"
             );
         }
+    }
+
+    #[test]
+    fn a_folded_plane_has_the_whole_spectrum_at_every_fold_th_frequency() {
+        let (w, h) = (12, 18);
+        let values = noise(5, w * h);
+        let row = |y: usize| &values[y * w..(y + 1) * w];
+        let spectrum = |fold: (usize, usize)| {
+            let (gw, gh) = (w / fold.0, h / fold.1);
+            let mut planner = FftPlanner::<f64>::new();
+            let ffts = (planner.plan_fft_forward(gw), planner.plan_fft_forward(gh));
+            let mut sum = vec![0.0; gw * gh];
+            add_plane_spectrum(&row, (w, h), fold, (&*ffts.0, &*ffts.1), &mut sum, |p| p);
+            sum
+        };
+        let whole = spectrum((1, 1));
+        for fold in [(2, 3), (4, 1), (1, 9), (12, 2)] {
+            let gw = w / fold.0;
+            let folded = spectrum(fold);
+            for (i, &p) in folded.iter().enumerate() {
+                let (fx, fy) = (i % gw * fold.0, i / gw * fold.1);
+                let exact = whole[fy * w + fx];
+                assert!(
+                    (p - exact).abs() < 1e-12,
+                    "{fold:?} ({fx}, {fy}): {p} vs {exact}"
+                );
+            }
+        }
+        // A constant plane adds nothing, folded or not.
+        let flat = vec![0.25; w * h];
+        let flat_row = |y: usize| &flat[y * w..(y + 1) * w];
+        let mut planner = FftPlanner::<f64>::new();
+        let ffts = (planner.plan_fft_forward(6), planner.plan_fft_forward(6));
+        let mut sum = vec![0.0; 36];
+        add_plane_spectrum(
+            &flat_row,
+            (w, h),
+            (2, 3),
+            (&*ffts.0, &*ffts.1),
+            &mut sum,
+            |p| p,
+        );
+        assert!(sum.iter().all(|&p| p == 0.0));
+    }
+
+    #[test]
+    fn bounded_batches_add_in_task_order() {
+        // One task per batch or all at once: the same bits.
+        let task = |t: usize| vec![0.1 * t as f64, 1.0 / (t + 3) as f64];
+        let all = sum_tasks_in_order(37, 1, 2, task);
+        let one_by_one = sum_tasks_in_order(37, MEMORY_BUDGET, 2, task);
+        assert_eq!(batch_size(MEMORY_BUDGET), 1);
+        assert!(batch_size(1) >= 37);
+        assert_eq!(all, one_by_one);
+        let mut expected = vec![0.0; 2];
+        for t in 0..37 {
+            expected.iter_mut().zip(task(t)).for_each(|(s, p)| *s += p);
+        }
+        assert_eq!(all, expected);
     }
 
     #[test]

@@ -12,7 +12,7 @@ use std::fs;
 use std::path::Path;
 
 pub use chart::{Axis, Chart, Series, SeriesLabelPosition, Style, colour_name};
-pub use table::{Cell, Column, Table, significant};
+pub use table::{Cell, Column, Table, line_text, significant};
 
 use crate::Result;
 

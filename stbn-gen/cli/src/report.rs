@@ -15,8 +15,8 @@ use indicatif::{ProgressBar, ProgressStyle};
 use stbn_gen::analysis::{
     Convergence, ConvergenceOptions, Field, FilteredErrorOptions, Integrand, SpectrumImage,
     VectorField, convergence, dft_xy_image, dft_xz_image, filtered_error,
-    pixel_histogram_deviation, radial_spectrum, slice_histogram_deviation, spatial_low_band,
-    temporal_low_band, temporal_spectrum,
+    pixel_histogram_deviation, radial_rings_per_cycle, radial_spectrum, slice_histogram_deviation,
+    spatial_low_band, spectrum_fold, temporal_low_band, temporal_spectrum,
 };
 
 use crate::Result;
@@ -187,7 +187,7 @@ impl Row {
         format!(
             "{}: {} {}{time}; low band (white noise = 1): spatial {}, temporal {}; \
              filtered error {:.5}",
-            self.name,
+            output::line_text(&self.name),
             size(self.size),
             self.kind,
             band(self.spatial),
@@ -392,7 +392,7 @@ fn figures(rows: &[Row]) -> Vec<Figure> {
             .iter()
             .zip(points)
             .map(|(row, points)| Series {
-                name: row.name.clone(),
+                name: output::line_text(&row.name),
                 points,
                 labels: Vec::new(),
                 style: Style::Line,
@@ -402,13 +402,14 @@ fn figures(rows: &[Row]) -> Vec<Figure> {
         reference,
     };
     let power = || Axis::linear_range("normalised power (white noise = 1)", 0.0, 2.5, 0.5);
-    // Radial: ring r of a slice whose longest side is L sits at r / L cycles per pixel. Rings
+    // Radial: ring r of a slice whose longest side is L sits at r / L cycles per pixel (L of the
+    // folded grid for slices too large to transform whole: `radial_rings_per_cycle`). Rings
     // beyond L / 2 hold only the corners of the frequency square, and DC is 0 by definition
     // (the mean is removed): both left out, as is DC of the temporal spectrum.
     let radial = rows
         .iter()
         .map(|row| {
-            let long = row.size.0.max(row.size.1);
+            let long = radial_rings_per_cycle(row.size.0, row.size.1);
             let points = row.radial.iter().enumerate().take(long / 2 + 1).skip(1);
             points.map(|(r, &p)| (r as f64 / long as f64, p)).collect()
         })
@@ -615,7 +616,7 @@ fn summary_table(rows: &[Row]) -> Table {
     for row in rows {
         let (width, height, frames) = row.size;
         let mut cells = vec![
-            Cell::text(&row.name),
+            Cell::name(&row.name),
             Cell::text(size(row.size)),
             Cell::text(&row.kind),
             Cell::int(width as u64),
@@ -710,12 +711,85 @@ encoding and PNG quantisation; those of analysed files on the decoded samples, \
 (sample + ½) / 2^bits.\n",
         ratio_at = vector::RATIO_AT,
     ));
+    partial_section(&mut text, rows);
     vector::section(&mut text, rows);
     convergence_section(&mut text, rows);
     plot_section(&mut text, rows);
     dft_section(&mut text, rows);
     csv_section(&mut text, rows);
     text
+}
+
+/// What was measured of each mask too large to measure whole ([`partial_measures`]), if any.
+fn partial_section(text: &mut String, rows: &[Row]) {
+    let lines: Vec<String> = rows
+        .iter()
+        .filter_map(|row| {
+            let what = partial_measures(row.size)?;
+            Some(format!(
+                "- `{}` ({}): {what}.\n",
+                output::line_text(&row.name),
+                size(row.size)
+            ))
+        })
+        .collect();
+    if lines.is_empty() {
+        return;
+    }
+    text.push_str(
+        "\n## Masks measured in part\n\n\
+         Large masks are measured in bounded memory: frames (and x–frame planes) of more \
+         than 2²² pixels are folded before their DFT, which gives the spectrum exactly at every \
+         k-th frequency of each folded axis (no crop, no leakage); the filtered error of frames \
+         of more than 2²⁰ pixels is averaged over a window at the frame's origin whose pixels \
+         are blurred with their true neighbours in the whole frame. Every other figure is of \
+         the whole mask.\n\n",
+    );
+    text.extend(lines);
+}
+
+/// Which figures of a `(width, height, frames)` mask are measured on part of it (the bounds of
+/// [`stbn_gen::analysis`]: [`spectrum_fold`], [`FilteredErrorOptions::window`]), in words;
+/// `None` when every figure is of the whole mask.
+fn partial_measures((w, h, d): (usize, usize, usize)) -> Option<String> {
+    let grid = |(a, b): (usize, usize), (fa, fb): (usize, usize), axes: [&str; 2]| {
+        let every = |f: usize, axis: &str| match f {
+            1 => format!("every {axis} frequency"),
+            2 => format!("every 2nd {axis} frequency"),
+            3 => format!("every 3rd {axis} frequency"),
+            f => format!("every {f}th {axis} frequency"),
+        };
+        format!(
+            "the {}×{} grid of {} and {}",
+            a / fa,
+            b / fb,
+            every(fa, axes[0]),
+            every(fb, axes[1])
+        )
+    };
+    let mut parts = Vec::new();
+    let xy = spectrum_fold(w, h);
+    if xy != (1, 1) {
+        parts.push(format!(
+            "spatial low band, radial spectrum and XY image on {}",
+            grid((w, h), xy, ["x", "y"])
+        ));
+    }
+    let xz = spectrum_fold(w, d);
+    if xz != (1, 1) {
+        parts.push(format!(
+            "XZ image on {}",
+            grid((w, d), xz, ["x", "temporal"])
+        ));
+    }
+    let window = FilteredErrorOptions::default().window(w, h);
+    if window != (w, h) {
+        parts.push(format!(
+            "filtered error over the {}×{} pixels at each frame's origin",
+            window.0, window.1
+        ));
+    }
+    (!parts.is_empty()).then(|| parts.join("; "))
 }
 
 /// The DFT magnitude images of every mask, as a table of XY and XZ images.
@@ -742,7 +816,7 @@ fn dft_section(text: &mut String, rows: &[Row]) {
         writeln!(
             text,
             "- `{}`: ![XY]({dir}/{xy}) ![XZ]({dir}/{xz})",
-            row.name.replace('`', "'")
+            output::line_text(&row.name)
         )
         .expect("String");
     }
@@ -770,9 +844,13 @@ fn csv_section(text: &mut String, rows: &[Row]) {
 
 /// The convergence figures of every integrand, as an aligned text block.
 fn convergence_section(text: &mut String, rows: &[Row]) {
-    let width = rows
+    let names: Vec<String> = rows
         .iter()
-        .map(|row| row.name.len())
+        .map(|row| output::line_text(&row.name))
+        .collect();
+    let width = names
+        .iter()
+        .map(|name| name.chars().count())
         .max()
         .unwrap_or(4)
         .max(4);
@@ -788,7 +866,10 @@ fn convergence_section(text: &mut String, rows: &[Row]) {
          ```text\n",
     );
     writeln!(text, "{:width$}  integrand  estimator  start{at}", "mask").expect("String");
-    for row in rows.iter().filter(|row| row.vector.is_none()) {
+    for (row, name) in rows.iter().zip(&names) {
+        if row.vector.is_some() {
+            continue;
+        }
         for integrand in Integrand::ALL {
             let starts = [
                 (0, row.curves(integrand)),
@@ -810,7 +891,7 @@ fn convergence_section(text: &mut String, rows: &[Row]) {
                 writeln!(
                     text,
                     "{:width$}  {:9}  {:9}  {start:5}{figures}",
-                    row.name,
+                    name,
                     integrand.name(),
                     estimator.label(),
                 )
@@ -827,7 +908,10 @@ fn plot_section(text: &mut String, rows: &[Row]) {
     let legend: Vec<String> = rows
         .iter()
         .enumerate()
-        .map(|(i, row)| format!("{} = {}", output::colour_name(i), row.name))
+        .map(|(i, row)| {
+            let name = output::line_text(&row.name);
+            format!("{} = {name}", output::colour_name(i))
+        })
         .collect();
     text.push_str(&legend.join(", "));
     text.push_str(
@@ -848,9 +932,9 @@ fn plot_section(text: &mut String, rows: &[Row]) {
                 Some(format!(
                     "{} (`{}`) lies on {} (`{}`)",
                     output::colour_name(i),
-                    rows[i].name,
+                    output::line_text(&rows[i].name),
                     output::colour_name(j),
-                    rows[j].name
+                    output::line_text(&rows[j].name)
                 ))
             })
             .collect();
@@ -859,9 +943,11 @@ fn plot_section(text: &mut String, rows: &[Row]) {
         } else {
             format!(" Same curve, drawn dashed: {}.", same.join("; "))
         };
+        // Brackets would end the image's alt text early.
+        let alt = title.replace(['[', ']'], "");
         write!(
             text,
-            "\n**{title}.** {axes}{same}\n\n![{title}]({PLOT_DIR}/{file})\n"
+            "\n**{title}.** {axes}{same}\n\n![{alt}]({PLOT_DIR}/{file})\n"
         )
         .expect("String");
     }
@@ -955,6 +1041,74 @@ mod tests {
         // Every integrand and estimator has a line per mask; 4 frames wrap up to 64 samples.
         let lines = text.lines().filter(|l| l.starts_with("scalar ")).count();
         assert_eq!(lines, 12, "{text}");
+    }
+
+    #[test]
+    fn a_name_with_line_breaks_and_pipes_stays_one_row_and_one_line() {
+        let evil = "two\nlines | and `ticks`\r\u{1b}[31m";
+        let text = markdown(
+            "Intro.",
+            &[row(evil, None, None), row("scalar", None, None)],
+        );
+        let shown = "two\\nlines | and 'ticks'\\r\\u{1b}[31m";
+        // The figures table: heading, rule and one row per mask, each a single line.
+        let table = &text[text.find("## Figures\n\n").unwrap()..];
+        let rows: Vec<&str> = table
+            .lines()
+            .skip(2)
+            .take_while(|l| l.starts_with('|'))
+            .collect();
+        assert_eq!(rows.len(), 2 + 2, "{table}");
+        let escaped = shown.replace('|', "\\|");
+        assert!(
+            rows[2].starts_with(&format!("| {escaped} | 64×32×1 |")),
+            "{}",
+            rows[2]
+        );
+        // Verdicts, DFT list, legend and convergence block: the escaped name, never a raw break.
+        assert!(
+            text.contains(&format!("- `{shown}` (png 8-bit): ")),
+            "{text}"
+        );
+        assert!(text.contains(&format!("- `{shown}`: ![XY]")), "{text}");
+        assert!(
+            text.contains(&format!("blue = {shown}, orange = scalar.")),
+            "{text}"
+        );
+        let block = text.lines().filter(|l| l.starts_with(shown)).count();
+        assert_eq!(block, 12, "{text}");
+        assert!(!text.contains('\r') && !text.contains('\u{1b}'));
+        assert!(!text.lines().any(|l| l.starts_with("lines")), "{text}");
+    }
+
+    #[test]
+    fn masks_too_large_to_measure_whole_say_what_was_measured() {
+        assert_eq!(partial_measures((256, 256, 128)), None);
+        assert_eq!(partial_measures((1024, 1024, 64)), None);
+        assert_eq!(
+            partial_measures((4096, 4096, 4)).unwrap(),
+            "spatial low band, radial spectrum and XY image on the 2048×2048 grid of every 2nd \
+             x frequency and every 2nd y frequency; filtered error over the 1024×1024 pixels at \
+             each frame's origin"
+        );
+        assert_eq!(
+            partial_measures((65536, 1, 1024)).unwrap(),
+            "XZ image on the 4096×1024 grid of every 16th x frequency and every temporal \
+             frequency"
+        );
+        let large = Row {
+            size: (4096, 4096, 4),
+            ..row("big", None, None)
+        };
+        let text = markdown("Intro.", &[row("small", None, None), large]);
+        assert!(text.contains("\n## Masks measured in part\n"), "{text}");
+        assert!(
+            text.contains("- `big` (4096×4096×4): spatial low band"),
+            "{text}"
+        );
+        assert!(!text.contains("- `small` (64×32×1)"), "{text}");
+        let small = markdown("Intro.", &[row("small", None, None)]);
+        assert!(!small.contains("measured in part"));
     }
 
     #[test]

@@ -2,10 +2,11 @@
 //!
 //! [`analysis`]: crate::analysis#dft-images
 
-use rayon::prelude::*;
 use rustfft::FftPlanner;
 
-use super::{Field, TASKS, add_slice_spectrum, sum_in_order};
+use super::{
+    Field, PLANE_TASK_BYTES, TASKS, add_plane_spectrum, spectrum_fold, sum_tasks_in_order,
+};
 
 /// A centred image of mean normalised DFT magnitudes ([module docs](crate::analysis#dft-images)).
 #[derive(Clone, Debug, PartialEq)]
@@ -49,55 +50,66 @@ impl SpectrumImage {
 
 /// The XY image: the 2D DFT magnitude of every slice, averaged over slices; `width × height`.
 ///
-/// Deterministic for any thread count (slice chunks are summed in order).
+/// Slices over [`MAX_SPECTRUM_PLANE`](super::MAX_SPECTRUM_PLANE) pixels are folded by
+/// [`spectrum_fold`]: the image is then the `(width / fx) × (height / fy)` grid of every
+/// `fx`-th and `fy`-th frequency, exactly. Deterministic for any thread count (slice chunks are
+/// summed in order).
 pub fn dft_xy_image(field: &Field) -> SpectrumImage {
     let (w, h, d) = (field.width(), field.height(), field.depth());
-    let images = (0..d).map(|z| field.slice(z).to_vec());
-    mean_magnitude(images.collect(), w, h)
+    mean_magnitude(d, (w, h), &|z, y| &field.slice(z)[y * w..(y + 1) * w])
 }
 
 /// The XZ image: for every row `y`, the 2D DFT magnitude of the `width × depth` image
 /// `v(x, y, z)` (x across, frame z down), averaged over rows; `width × depth`.
 ///
-/// Deterministic for any thread count (row chunks are summed in order).
+/// Planes over [`MAX_SPECTRUM_PLANE`](super::MAX_SPECTRUM_PLANE) pixels are folded by
+/// [`spectrum_fold`]`(width, depth)`, as in [`dft_xy_image`]. Deterministic for any thread count
+/// (row chunks are summed in order).
 pub fn dft_xz_image(field: &Field) -> SpectrumImage {
     let (w, h, d) = (field.width(), field.height(), field.depth());
     let n = field.slice_pixels();
     let values = field.values();
-    let images = (0..h).map(|y| {
-        (0..d)
-            .flat_map(|z| values[z * n + y * w..z * n + (y + 1) * w].iter().copied())
-            .collect()
-    });
-    mean_magnitude(images.collect(), w, d)
+    mean_magnitude(h, (w, d), &|y, z| {
+        &values[z * n + y * w..z * n + (y + 1) * w]
+    })
 }
 
-/// The centred mean normalised magnitude of `images`, each `w × h` row-major.
-fn mean_magnitude(images: Vec<Vec<f64>>, w: usize, h: usize) -> SpectrumImage {
+/// The centred mean normalised magnitude of `count` planes of `w × h` values, row `j` of plane
+/// `i` being `row(i, j)` (`w` values), read as they are transformed.
+fn mean_magnitude<'a>(
+    count: usize,
+    (w, h): (usize, usize),
+    row: &(dyn Fn(usize, usize) -> &'a [f64] + Sync),
+) -> SpectrumImage {
+    let fold = spectrum_fold(w, h);
+    let (gw, gh) = (w / fold.0, h / fold.1);
     let mut planner = FftPlanner::<f64>::new();
-    let fft_x = planner.plan_fft_forward(w);
-    let fft_y = planner.plan_fft_forward(h);
-    let count = images.len();
-    let sum = sum_in_order(
-        images.par_chunks(count.div_ceil(TASKS)).map(|chunk| {
-            let mut sum = vec![0.0; w * h];
-            for image in chunk {
-                add_slice_spectrum(image, w, h, &*fft_x, &*fft_y, &mut sum, f64::sqrt);
+    let fft_x = planner.plan_fft_forward(gw);
+    let fft_y = planner.plan_fft_forward(gh);
+    let chunk = count.div_ceil(TASKS);
+    let sum = sum_tasks_in_order(
+        count.div_ceil(chunk),
+        PLANE_TASK_BYTES * gw * gh,
+        gw * gh,
+        |task| {
+            let mut sum = vec![0.0; gw * gh];
+            for plane in task * chunk..((task + 1) * chunk).min(count) {
+                let rows = |j: usize| row(plane, j);
+                add_plane_spectrum(&rows, (w, h), fold, (&*fft_x, &*fft_y), &mut sum, f64::sqrt);
             }
             sum
-        }),
-        w * h,
+        },
     );
-    let mut values = vec![0.0; w * h];
-    for fy in 0..h {
-        for fx in 0..w {
-            let (column, row) = ((fx + w / 2) % w, (fy + h / 2) % h);
-            values[row * w + column] = sum[fy * w + fx] / count as f64;
+    let mut values = vec![0.0; gw * gh];
+    for fy in 0..gh {
+        for fx in 0..gw {
+            let (column, row) = ((fx + gw / 2) % gw, (fy + gh / 2) % gh);
+            values[row * gw + column] = sum[fy * gw + fx] / count as f64;
         }
     }
     SpectrumImage {
-        width: w,
-        height: h,
+        width: gw,
+        height: gh,
         values,
     }
 }

@@ -55,7 +55,7 @@ pub fn filtered_error(field: &Field, options: FilteredErrorOptions) -> Vec<f64> 
         thresholds,
         sigma,
         alpha,
-        seed,
+        ..
     } = options;
     assert!(thresholds > 0, "at least one threshold");
     assert!(
@@ -66,28 +66,187 @@ pub fn filtered_error(field: &Field, options: FilteredErrorOptions) -> Vec<f64> 
         alpha > 0.0 && alpha <= 1.0,
         "alpha {alpha} must be in (0, 1]"
     );
+    windowed_error(field, options, &Frame::new(field, &options))
+}
+
+/// [`filtered_error`] over the window of `frame` (checked options).
+fn windowed_error(field: &Field, options: FilteredErrorOptions, frame: &Frame) -> Vec<f64> {
+    let FilteredErrorOptions {
+        thresholds,
+        sigma,
+        alpha,
+        seed,
+    } = options;
     let depth = field.depth();
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    // Row s: the thresholds of stratum s at every frame.
-    let levels: Vec<f64> = (0..thresholds * depth)
-        .map(|i| ((i / depth) as f64 + rng.random::<f64>()) / thresholds as f64)
-        .collect();
     let kernel = gaussian_weights(sigma);
-    let variances: Vec<Vec<f64>> = levels
-        .par_chunks(depth * LANES)
-        .flat_map_iter(|levels| {
-            let strata: Vec<&[f64]> = levels.chunks(depth).collect();
-            let lanes = binary_variances(field, &kernel, alpha, |z, binary| {
-                // Lanes past the last stratum repeat it; their variances are dropped.
-                let t: [f64; LANES] = std::array::from_fn(|l| strata[l.min(strata.len() - 1)][z]);
-                for (b, &v) in binary.iter_mut().zip(field.slice(z)) {
-                    *b = t.map(|t| if v < t { 1.0 } else { 0.0 });
-                }
-            });
-            stratum_variances(lanes, strata.len())
-        })
-        .collect();
-    sum_strata(&variances, depth, thresholds)
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let task_bytes = frame.task_bytes(1, depth);
+    in_batches(thresholds, depth, task_bytes, |strata| {
+        // Row s: the thresholds of stratum s at every frame (the one stream, batch after batch).
+        let levels: Vec<f64> = (strata.start * depth..strata.end * depth)
+            .map(|i| ((i / depth) as f64 + rng.random::<f64>()) / thresholds as f64)
+            .collect();
+        levels
+            .par_chunks(depth * LANES)
+            .flat_map_iter(|levels| {
+                let strata: Vec<&[f64]> = levels.chunks(depth).collect();
+                let mut window = Vec::new();
+                let lanes = binary_variances(frame, depth, &kernel, alpha, |z, binary| {
+                    // Lanes past the last stratum repeat it; their variances are dropped.
+                    let t: [f64; LANES] =
+                        std::array::from_fn(|l| strata[l.min(strata.len() - 1)][z]);
+                    let values = frame.values(field.slice(z), &mut window);
+                    for (b, &v) in binary.iter_mut().zip(values) {
+                        *b = t.map(|t| if v < t { 1.0 } else { 0.0 });
+                    }
+                });
+                stratum_variances(lanes, strata.len())
+            })
+            .collect()
+    })
+}
+
+/// Frames whose pixels number more than this are measured on a window of at most
+/// [`FilteredErrorOptions::WINDOW_SIDE`] pixels per axis ([`FilteredErrorOptions::window`]).
+pub const MAX_FILTERED_FRAME: usize = 1 << 20;
+
+impl FilteredErrorOptions {
+    /// The longest side of the window larger frames are measured on.
+    pub const WINDOW_SIDE: usize = 1024;
+
+    /// The pixels of each `width × height` frame whose filtered error is averaged:
+    /// `(window width, window height)` at the frame's origin. The whole frame up to
+    /// [`MAX_FILTERED_FRAME`] pixels; beyond it, each axis longer than
+    /// [`FilteredErrorOptions::WINDOW_SIDE`] is cut to that many pixels (an axis that would keep
+    /// fewer than the blur's radius on each side stays whole). Window pixels are blurred with
+    /// their true toroidal neighbours from the whole frame, so each one holds exactly the
+    /// value the whole-frame computation gives it; only the mean and variance are over the
+    /// window. Vector thresholds select their fraction of the window and the blur's margin.
+    pub fn window(&self, width: usize, height: usize) -> (usize, usize) {
+        let radius = gaussian_weights_radius(self.sigma);
+        let cut = |len: usize| {
+            if width * height > MAX_FILTERED_FRAME
+                && len > Self::WINDOW_SIDE
+                && Self::WINDOW_SIDE.saturating_add(radius.saturating_mul(2)) < len
+            {
+                Self::WINDOW_SIDE
+            } else {
+                len
+            }
+        };
+        (cut(width), cut(height))
+    }
+}
+
+/// The part of a frame [`binary_variances`] blurs and measures: a `w × h` buffer of field
+/// pixels (`xs[i]`, `ys[j]`), the window of [`FilteredErrorOptions::window`] with a margin of
+/// the blur's radius on each cut axis, and the window inside it (columns `x0..x1`, rows
+/// `y0..y1`). The whole frame, in order, when nothing is cut.
+struct Frame {
+    field_width: usize,
+    w: usize,
+    h: usize,
+    xs: Vec<usize>,
+    ys: Vec<usize>,
+    x0: usize,
+    x1: usize,
+    y0: usize,
+    y1: usize,
+    whole: bool,
+}
+
+impl Frame {
+    /// The frame of [`FilteredErrorOptions::window`].
+    fn new(field: &Field, options: &FilteredErrorOptions) -> Frame {
+        let window = options.window(field.width(), field.height());
+        Frame::with_window(field, gaussian_weights_radius(options.sigma), window)
+    }
+
+    /// The window `(ww, wh)` at the origin of `field`'s frames, with a margin of `radius` on
+    /// each axis it cuts.
+    fn with_window(field: &Field, radius: usize, (ww, wh): (usize, usize)) -> Frame {
+        let (fw, fh) = (field.width(), field.height());
+        // A cut axis: the window and `radius` pixels on each side, wrapping around the frame.
+        let axis = |len: usize, window: usize| -> (Vec<usize>, usize, usize) {
+            if window == len {
+                ((0..len).collect(), 0, len)
+            } else {
+                let indices = (0..window + 2 * radius)
+                    .map(|i| (i + len - radius % len) % len)
+                    .collect();
+                (indices, radius, radius + window)
+            }
+        };
+        let (xs, x0, x1) = axis(fw, ww);
+        let (ys, y0, y1) = axis(fh, wh);
+        Frame {
+            field_width: fw,
+            w: xs.len(),
+            h: ys.len(),
+            whole: (ww, wh) == (fw, fh),
+            xs,
+            ys,
+            x0,
+            x1,
+            y0,
+            y1,
+        }
+    }
+
+    /// Pixels whose mean and variance are taken.
+    fn measured(&self) -> usize {
+        (self.x1 - self.x0) * (self.y1 - self.y0)
+    }
+
+    /// The buffer's values of frame `z` of `field`: the slice itself for a whole frame, else
+    /// gathered into `window`.
+    fn values<'s>(&self, slice: &'s [f64], window: &'s mut Vec<f64>) -> &'s [f64] {
+        if self.whole {
+            return slice;
+        }
+        window.clear();
+        for &y in &self.ys {
+            let row = &slice[y * self.field_width..(y + 1) * self.field_width];
+            window.extend(self.xs.iter().map(|&x| row[x]));
+        }
+        window
+    }
+
+    /// About the bytes one task of `LANES` strata of a field with `components` components and
+    /// `depth` frames holds: three buffers of [`LANES`] `f64` per pixel (binary, blur scratch,
+    /// EMA), a gathered window per component, for vectors the selection's keys and the
+    /// projection, and the strata's draws and variance curves.
+    fn task_bytes(&self, components: usize, depth: usize) -> usize {
+        let n = self.w * self.h;
+        let vector = if components > 1 { 24 * n } else { 0 };
+        let per_pixel = 3 * 8 * LANES * n + 8 * components * n + vector;
+        per_pixel + 8 * LANES * (self.w + self.h) + 8 * LANES * depth * (components + 3)
+    }
+}
+
+/// `⌈4σ⌉`, the radius of [`gaussian_weights`].
+fn gaussian_weights_radius(sigma: f64) -> usize {
+    (4.0 * sigma).ceil() as usize
+}
+
+/// `sqrt(Σ_s Var_s(k) / K)` per frame `k` over `thresholds` strata, run in batches of whole
+/// groups of [`LANES`] strata that fit [`MEMORY_BUDGET`](super::MEMORY_BUDGET) at `task_bytes`
+/// per group: `batch(strata)` returns each stratum's variance curve, and the curves are added in
+/// stratum order, so the result does not depend on the batches or the thread count.
+fn in_batches(
+    thresholds: usize,
+    depth: usize,
+    task_bytes: usize,
+    mut batch: impl FnMut(std::ops::Range<usize>) -> Vec<Vec<f64>>,
+) -> Vec<f64> {
+    let strata_per_batch = super::batch_size(task_bytes) * LANES;
+    let mut sum = vec![0.0; depth];
+    for first in (0..thresholds).step_by(strata_per_batch) {
+        for part in batch(first..(first + strata_per_batch).min(thresholds)) {
+            sum.iter_mut().zip(&part).for_each(|(s, v)| *s += v);
+        }
+    }
+    sum.iter().map(|s| (s / thresholds as f64).sqrt()).collect()
 }
 
 /// Strata whose frames are blurred and averaged together, one per `f64` lane of
@@ -105,15 +264,6 @@ fn stratum_variances(lanes: Vec<[f64; LANES]>, strata: usize) -> Vec<Vec<f64>> {
     (0..strata)
         .map(|l| lanes.iter().map(|v| v[l]).collect())
         .collect()
-}
-
-/// `sqrt(Σ_s Var_s(k) / K)` per frame `k`, the strata summed in order.
-fn sum_strata(variances: &[Vec<f64>], depth: usize, thresholds: usize) -> Vec<f64> {
-    let mut sum = vec![0.0; depth];
-    for part in variances {
-        sum.iter_mut().zip(part).for_each(|(s, v)| *s += v);
-    }
-    sum.iter().map(|s| (s / thresholds as f64).sqrt()).collect()
 }
 
 /// The filtered error of a vector mask: [`filtered_error`] with random half-spaces for
@@ -160,56 +310,66 @@ pub fn filtered_error_vector(
             second: size(other),
         });
     }
-    let (depth, n, d) = (field.depth(), field.slice_pixels(), components.len());
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    // Per (stratum, frame): the fraction q, then the d direction components.
-    let draws: Vec<f64> = (0..thresholds * depth)
-        .flat_map(|i| {
-            let q = ((i / depth) as f64 + rng.random::<f64>()) / thresholds as f64;
-            let direction = unit_direction(&mut rng, d);
-            std::iter::once(q).chain(direction)
-        })
-        .collect();
+    let (depth, d) = (field.depth(), components.len());
     let kernel = gaussian_weights(sigma);
-    let variances: Vec<Vec<f64>> = draws
-        .par_chunks(depth * (d + 1) * LANES)
-        .flat_map_iter(|draws| {
-            let strata: Vec<&[f64]> = draws.chunks(depth * (d + 1)).collect();
-            let mut order: Vec<(u64, u32)> = Vec::with_capacity(n);
-            let mut projection = vec![0.0; n];
-            let lanes = binary_variances(field, &kernel, alpha, |z, binary| {
-                let slices: Vec<&[f64]> = components.iter().map(|c| c.slice(z)).collect();
-                binary.fill([0.0; LANES]);
-                for l in 0..LANES {
-                    // Lanes past the last stratum repeat it; their variances are dropped.
-                    let draws = strata[l.min(strata.len() - 1)];
-                    let (q, direction) = (draws[z * (d + 1)], &draws[z * (d + 1) + 1..][..d]);
-                    // n · v(p), components in order from −0.0 (as `Iterator::sum` adds them).
-                    projection.fill(-0.0);
-                    for (c, &nc) in slices.iter().zip(direction) {
-                        for (s, &v) in projection.iter_mut().zip(*c) {
-                            *s += v * nc;
+    let frame = Frame::new(field, &options);
+    let n = frame.w * frame.h;
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let task_bytes = frame.task_bytes(d + 1, depth);
+    Ok(in_batches(thresholds, depth, task_bytes, |strata| {
+        // Per (stratum, frame): the fraction q, then the d direction components (the one
+        // stream, batch after batch).
+        let draws: Vec<f64> = (strata.start * depth..strata.end * depth)
+            .flat_map(|i| {
+                let q = ((i / depth) as f64 + rng.random::<f64>()) / thresholds as f64;
+                let direction = unit_direction(&mut rng, d);
+                std::iter::once(q).chain(direction)
+            })
+            .collect();
+        draws
+            .par_chunks(depth * (d + 1) * LANES)
+            .flat_map_iter(|draws| {
+                let strata: Vec<&[f64]> = draws.chunks(depth * (d + 1)).collect();
+                let mut order: Vec<(u64, u32)> = Vec::with_capacity(n);
+                let mut projection = vec![0.0; n];
+                let mut windows = vec![Vec::new(); d];
+                let lanes = binary_variances(&frame, depth, &kernel, alpha, |z, binary| {
+                    let slices: Vec<&[f64]> = components
+                        .iter()
+                        .zip(&mut windows)
+                        .map(|(c, window)| frame.values(c.slice(z), window))
+                        .collect();
+                    binary.fill([0.0; LANES]);
+                    for l in 0..LANES {
+                        // Lanes past the last stratum repeat it; their variances are dropped.
+                        let draws = strata[l.min(strata.len() - 1)];
+                        let (q, direction) = (draws[z * (d + 1)], &draws[z * (d + 1) + 1..][..d]);
+                        // n · v(p), components in order from −0.0 (as `Iterator::sum` adds them).
+                        projection.fill(-0.0);
+                        for (c, &nc) in slices.iter().zip(direction) {
+                            for (s, &v) in projection.iter_mut().zip(*c) {
+                                *s += v * nc;
+                            }
+                        }
+                        order.clear();
+                        order.extend(
+                            (0..n as u32)
+                                .zip(&projection)
+                                .map(|(p, &s)| (total_order_key(s), p)),
+                        );
+                        let below = ((q * n as f64) as usize).min(n);
+                        if below > 0 {
+                            order.select_nth_unstable(below - 1);
+                            for &(_, p) in &order[..below] {
+                                binary[p as usize][l] = 1.0;
+                            }
                         }
                     }
-                    order.clear();
-                    order.extend(
-                        (0..n as u32)
-                            .zip(&projection)
-                            .map(|(p, &s)| (total_order_key(s), p)),
-                    );
-                    let below = ((q * n as f64) as usize).min(n);
-                    if below > 0 {
-                        order.select_nth_unstable(below - 1);
-                        for &(_, p) in &order[..below] {
-                            binary[p as usize][l] = 1.0;
-                        }
-                    }
-                }
-            });
-            stratum_variances(lanes, strata.len())
-        })
-        .collect();
-    Ok(sum_strata(&variances, depth, thresholds))
+                });
+                stratum_variances(lanes, strata.len())
+            })
+            .collect()
+    }))
 }
 
 /// A key whose unsigned order is `f64::total_cmp`'s order of `x`: the sign bit flipped for
@@ -348,7 +508,8 @@ const CHAINS: usize = 8;
 /// and an add), so the same bits. The analysis bench, Zen 4, 2 cores, both builds in one sitting:
 /// 0.72–0.73 s (SSE2) against 0.46 s, with half-spaces 1.21–1.24 s against 0.94–0.95 s.
 fn binary_variances(
-    field: &Field,
+    frame: &Frame,
+    depth: usize,
     kernel: &[f64],
     alpha: f64,
     binarize: impl FnMut(usize, &mut [[f64; LANES]]),
@@ -357,62 +518,84 @@ fn binary_variances(
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU runs AVX2 code (checked just above), all that
         // `binary_variances_avx2` requires.
-        return unsafe { binary_variances_avx2(field, kernel, alpha, binarize) };
+        return unsafe { binary_variances_avx2(frame, depth, kernel, alpha, binarize) };
     }
-    binary_variances_portable(field, kernel, alpha, binarize)
+    binary_variances_portable(frame, depth, kernel, alpha, binarize)
 }
 
 /// [`binary_variances`] compiled with AVX2 enabled.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 fn binary_variances_avx2(
-    field: &Field,
+    frame: &Frame,
+    depth: usize,
     kernel: &[f64],
     alpha: f64,
     binarize: impl FnMut(usize, &mut [[f64; LANES]]),
 ) -> Vec<[f64; LANES]> {
-    binary_variances_portable(field, kernel, alpha, binarize)
+    binary_variances_portable(frame, depth, kernel, alpha, binarize)
 }
 
 /// [`binary_variances`] for the target's baseline, inlined into the AVX2 build.
 #[inline(always)]
 fn binary_variances_portable(
-    field: &Field,
+    frame: &Frame,
+    depth: usize,
     kernel: &[f64],
     alpha: f64,
     mut binarize: impl FnMut(usize, &mut [[f64; LANES]]),
 ) -> Vec<[f64; LANES]> {
-    let (w, h) = (field.width(), field.height());
+    let (w, h) = (frame.w, frame.h);
     let n = w * h;
     let mut binary = vec![[0.0; LANES]; n];
     let mut scratch = vec![[0.0; LANES]; n];
     let mut ema = vec![[0.0; LANES]; n];
+    let measured = frame.measured() as f64;
     // A plain loop, not an iterator chain: a closure handed to `map` is compiled out of line,
     // without the AVX2 build's features.
-    let mut variances = Vec::with_capacity(field.depth());
-    for z in 0..field.depth() {
+    let mut variances = Vec::with_capacity(depth);
+    for z in 0..depth {
         binarize(z, &mut binary);
-        // Each blurred value goes straight into the EMA, and the EMA into the mean's sum (over
-        // the pixels in pixel order, lane by lane, from −0.0 like `Iterator::sum`).
+        // Each blurred value goes into the EMA, and the window's EMA into the mean's sum (over
+        // its pixels in pixel order, lane by lane, from −0.0 like `Iterator::sum`): straight
+        // from the blur when the window is the whole frame.
         let mut mean = [-0.0; LANES];
-        blur_toroidal(&binary, w, h, kernel, &mut scratch, &mut ema, |e, f| {
-            for ((e, f), m) in e.iter_mut().zip(f).zip(&mut mean) {
+        let update = |e: &mut [f64; LANES], f: [f64; LANES]| {
+            for (e, f) in e.iter_mut().zip(f) {
                 *e = if z == 0 {
                     f
                 } else {
                     alpha * f + (1.0 - alpha) * *e
                 };
-                *m += *e;
             }
-        });
-        let mean = mean.map(|s| s / n as f64);
-        let mut variance = [-0.0; LANES];
-        for e in &ema {
-            for ((v, e), m) in variance.iter_mut().zip(e).zip(mean) {
-                *v += (e - m) * (e - m);
+        };
+        if frame.whole {
+            blur_toroidal(&binary, w, h, kernel, &mut scratch, &mut ema, |e, f| {
+                update(e, f);
+                for (m, e) in mean.iter_mut().zip(e) {
+                    *m += *e;
+                }
+            });
+        } else {
+            blur_toroidal(&binary, w, h, kernel, &mut scratch, &mut ema, update);
+            for row in ema[frame.y0 * w..frame.y1 * w].chunks_exact(w) {
+                for e in &row[frame.x0..frame.x1] {
+                    for (m, e) in mean.iter_mut().zip(e) {
+                        *m += *e;
+                    }
+                }
             }
         }
-        variances.push(variance.map(|s| s / n as f64));
+        let mean = mean.map(|s| s / measured);
+        let mut variance = [-0.0; LANES];
+        for row in ema[frame.y0 * w..frame.y1 * w].chunks_exact(w) {
+            for e in &row[frame.x0..frame.x1] {
+                for ((v, e), m) in variance.iter_mut().zip(e).zip(mean) {
+                    *v += (e - m) * (e - m);
+                }
+            }
+        }
+        variances.push(variance.map(|s| s / measured));
     }
     variances
 }
@@ -422,10 +605,12 @@ mod tests {
     use super::*;
 
     /// The filtered errors one stratum at a time, in the plainest order: each blur output a
-    /// `sum` over an index table, each frame's mean and variance a `sum` over the pixels.
+    /// `sum` over an index table, each frame's mean and variance a `sum` over the pixels of the
+    /// window `(ww, wh)` at the origin (the whole frame: `(width, height)`).
     fn one_stratum_at_a_time(
         field: &Field,
         options: FilteredErrorOptions,
+        (ww, wh): (usize, usize),
         binarize: impl Fn(usize, usize, &mut [f64]),
     ) -> Vec<f64> {
         let (w, h, depth) = (field.width(), field.height(), field.depth());
@@ -468,8 +653,10 @@ mod tests {
                         options.alpha * f + (1.0 - options.alpha) * *e
                     };
                 }
-                let mean = ema.iter().sum::<f64>() / n as f64;
-                *total += ema.iter().map(|e| (e - mean) * (e - mean)).sum::<f64>() / n as f64;
+                let window = || (0..wh).flat_map(|y| &ema[y * w..y * w + ww]);
+                let count = (ww * wh) as f64;
+                let mean = window().sum::<f64>() / count;
+                *total += window().map(|e| (e - mean) * (e - mean)).sum::<f64>() / count;
             }
         }
         sum.iter()
@@ -499,11 +686,12 @@ mod tests {
             let levels: Vec<f64> = (0..thresholds * d)
                 .map(|i| ((i / d) as f64 + levels.random::<f64>()) / thresholds as f64)
                 .collect();
-            let expected = one_stratum_at_a_time(&field, options, |s, z, binary| {
+            let binarize = |s: usize, z: usize, binary: &mut [f64]| {
                 for (b, &v) in binary.iter_mut().zip(field.slice(z)) {
                     *b = if v < levels[s * d + z] { 1.0 } else { 0.0 };
                 }
-            });
+            };
+            let expected = one_stratum_at_a_time(&field, options, (w, h), binarize);
             let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
             assert_eq!(
                 bits(&filtered_error(&field, options)),
@@ -520,7 +708,7 @@ mod tests {
                     (q, unit_direction(&mut draws, 2))
                 })
                 .collect();
-            let expected = one_stratum_at_a_time(&field, options, |s, z, binary| {
+            let expected = one_stratum_at_a_time(&field, options, (w, h), |s, z, binary| {
                 let (q, direction) = &draws[s * d + z];
                 let projection =
                     |p: usize| field.slice(z)[p] * direction[0] + second.slice(z)[p] * direction[1];
@@ -534,6 +722,40 @@ mod tests {
             });
             let vector = filtered_error_vector(&[field, second], options).unwrap();
             assert_eq!(bits(&vector), bits(&expected), "{w}x{h}x{d}, vector");
+        }
+    }
+
+    #[test]
+    fn a_window_measures_its_pixels_with_their_whole_frame_neighbours() {
+        let (w, h, d) = (40, 30, 3);
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let values: Vec<f64> = (0..w * h * d).map(|_| rng.random()).collect();
+        let field = Field::new(w, h, d, &values).unwrap();
+        let options = FilteredErrorOptions {
+            thresholds: 9,
+            seed: 4,
+            ..FilteredErrorOptions::default()
+        };
+        let mut levels = ChaCha8Rng::seed_from_u64(options.seed);
+        let levels: Vec<f64> = (0..options.thresholds * d)
+            .map(|i| ((i / d) as f64 + levels.random::<f64>()) / options.thresholds as f64)
+            .collect();
+        let radius = gaussian_weights_radius(options.sigma);
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        // x cut, y whole; x whole, y cut; both cut.
+        for window in [(16, 30), (40, 10), (12, 9)] {
+            let frame = Frame::with_window(&field, radius, window);
+            assert!(!frame.whole);
+            let expected = one_stratum_at_a_time(&field, options, window, |s, z, binary| {
+                for (b, &v) in binary.iter_mut().zip(field.slice(z)) {
+                    *b = if v < levels[s * d + z] { 1.0 } else { 0.0 };
+                }
+            });
+            assert_eq!(
+                bits(&windowed_error(&field, options, &frame)),
+                bits(&expected),
+                "{window:?}"
+            );
         }
     }
 

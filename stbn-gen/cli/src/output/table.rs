@@ -26,6 +26,15 @@ impl Cell {
         }
     }
 
+    /// Outside text (a mask's name): exact in CSV (quoted there as needed), [`line_text`] in
+    /// markdown.
+    pub fn name(text: &str) -> Cell {
+        Cell {
+            csv: text.to_owned(),
+            md: line_text(text),
+        }
+    }
+
     /// An integer.
     pub fn int(value: u64) -> Cell {
         Cell {
@@ -206,9 +215,10 @@ impl Table {
         super::write_text(path, &self.csv())
     }
 
-    /// The markdown table (`|` in a cell escaped).
+    /// The markdown table: every heading and cell through [`cell_text`], so each row is one
+    /// line of the table whatever its text holds.
     pub fn markdown(&self) -> String {
-        let escape = |s: &str| s.replace('|', "\\|");
+        let escape = cell_text;
         let shown: Vec<(&String, usize)> = self
             .columns
             .iter()
@@ -233,6 +243,45 @@ impl Table {
         }
         text
     }
+}
+
+/// Most characters of one piece of outside text (a mask's name, which `analyze` takes from any
+/// folder name) the markdown of a report or table shows: longer text is cut and ends in `…`.
+/// As long as the longest name a manifest accepts, so no generated mask's name is ever cut.
+pub const MAX_SHOWN_CHARS: usize = 128;
+
+/// Outside text (a mask's name) as one line of markdown: at most [`MAX_SHOWN_CHARS`]
+/// characters (then `…`), control characters written as their escapes ([`escape_controls`]),
+/// and backticks as `'`, so the text can sit inside a code span, a heading, a list item or a
+/// line of a code block without ending it. In a table, [`Table::markdown`] escapes `|` too.
+pub fn line_text(text: &str) -> String {
+    let mut shown: String = text.chars().take(MAX_SHOWN_CHARS).collect();
+    if text.chars().nth(MAX_SHOWN_CHARS).is_some() {
+        shown.pop();
+        shown.push('…');
+    }
+    escape_controls(&shown.replace('`', "'"))
+}
+
+/// `text` with every control character (line breaks, tabs, escape sequences) and the Unicode
+/// line and paragraph separators written as its Rust escape (`\n`, `\t`, `\u{1b}`), so it
+/// stays on one line.
+fn escape_controls(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    for c in text.chars() {
+        if c.is_control() || matches!(c, '\u{2028}' | '\u{2029}') {
+            out.extend(c.escape_default());
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
+/// One cell of a markdown table: control characters escaped ([`escape_controls`]) and `|` as
+/// `\|`, so the cell ends neither its row nor itself.
+fn cell_text(text: &str) -> String {
+    escape_controls(text).replace('|', "\\|")
 }
 
 /// `field` as one CSV field: quoted (inner quotes doubled) when it holds a comma, a quote or a
@@ -271,6 +320,32 @@ mod tests {
             table.markdown(),
             "| name | value (s) |\n|---|---:|\n| a,b\\|c | 1.50 |\n"
         );
+    }
+
+    #[test]
+    fn outside_text_is_one_bounded_line_in_markdown() {
+        assert_eq!(line_text("plain_name-1"), "plain_name-1");
+        assert_eq!(
+            line_text("a\nb\r\tc`d\u{1b}e\u{2028}f"),
+            "a\\nb\\r\\tc'd\\u{1b}e\\u{2028}f"
+        );
+        assert_eq!(cell_text("a|`b`\n"), "a\\|`b`\\n");
+        let long = "x".repeat(MAX_SHOWN_CHARS);
+        assert_eq!(line_text(&long), long);
+        let longer = "é".repeat(MAX_SHOWN_CHARS + 1);
+        let shown = line_text(&longer);
+        assert_eq!(shown.chars().count(), MAX_SHOWN_CHARS);
+        assert!(shown.ends_with("é…"), "{shown}");
+        // A name with a line break and a pipe stays one row of three cells.
+        let mut table = Table::new(&[("mask", "mask", false), ("value", "value", true)]);
+        let evil = "evil\n| x | y |\nname";
+        table.push(vec![Cell::name(evil), Cell::fixed(0.5, 2)]);
+        let text = table.markdown();
+        assert_eq!(text.lines().count(), 3, "{text}");
+        let row = text.lines().nth(2).unwrap();
+        assert_eq!(row, "| evil\\n\\| x \\| y \\|\\nname | 0.50 |");
+        // CSV keeps the name exact, quoted.
+        assert_eq!(table.csv(), format!("mask,value\n\"{evil}\",0.5\n"));
     }
 
     #[test]

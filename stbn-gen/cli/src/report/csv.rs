@@ -19,7 +19,7 @@ use std::fs::OpenOptions;
 use std::io::Write as _;
 use std::path::Path;
 
-use stbn_gen::analysis::Integrand;
+use stbn_gen::analysis::{Integrand, radial_rings_per_cycle};
 
 use super::{Estimator, Row, summary_table};
 use crate::Result;
@@ -86,7 +86,7 @@ pub fn files(rows: &[Row], vector: bool) -> Vec<CsvFile> {
         }
     }
     let radial = rows.iter().flat_map(|row| {
-        let long = row.size.0.max(row.size.1) as f64;
+        let long = radial_rings_per_cycle(row.size.0, row.size.1) as f64;
         let rings = row.radial.iter().enumerate();
         rings.map(move |(r, &p)| {
             let frequency = Cell::fixed(r as f64 / long, 4);

@@ -64,7 +64,7 @@ pub fn verdicts(rows: &[Row]) -> String {
 /// One mask's verdict: how blue it is in space and time, with the figures, and a warning for
 /// each axis where it is no better than white noise.
 fn verdict(row: &Row) -> String {
-    let name = format!("`{}`", row.name.replace('`', "'"));
+    let name = format!("`{}`", crate::output::line_text(&row.name));
     let space = Blueness::of(row.spatial);
     let time = Blueness::of(row.temporal);
     let figures = format!(

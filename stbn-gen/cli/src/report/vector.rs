@@ -14,7 +14,7 @@ use stbn_gen::analysis::{
 };
 
 use super::{CONVERGENCE_SAMPLES, Estimator, Figure, HISTOGRAM_BINS, Row, Spectra, at_samples};
-use crate::output::{Axis, Cell, Chart, Column, Series, SeriesLabelPosition, Style, Table};
+use crate::output::{self, Axis, Cell, Chart, Column, Series, SeriesLabelPosition, Style, Table};
 
 /// The seed of the shuffle that makes white noise of a mask's own values.
 const WHITE_SEED: u64 = 1;
@@ -246,7 +246,7 @@ pub fn figures(rows: &[Row]) -> Vec<Figure> {
                 };
                 [
                     curve(
-                        format!("{}: {}", t.function.name(), row.name),
+                        format!("{}: {}", t.function.name(), output::line_text(&row.name)),
                         &t.mask.monte_carlo,
                     ),
                     curve(
@@ -261,7 +261,8 @@ pub fn figures(rows: &[Row]) -> Vec<Figure> {
             chart: Chart {
                 title: format!(
                     "Test functions, {} ({}), Monte Carlo",
-                    row.name, vector.space
+                    output::line_text(&row.name),
+                    vector.space
                 ),
                 x: Axis::log_decades("samples", 0, 2),
                 y: Axis::log_decades("RMSE over pixels", -3, 0),
@@ -305,7 +306,7 @@ pub fn section(text: &mut String, rows: &[Row]) {
         let Some(vector) = &row.vector else { continue };
         for c in &vector.components {
             table.push(vec![
-                Cell::text(&row.name),
+                Cell::name(&row.name),
                 Cell::text(vector.space),
                 Cell::text(c.name),
                 Cell::opt_fixed(c.spatial, 4),
@@ -331,7 +332,7 @@ pub fn section(text: &mut String, rows: &[Row]) {
     for row in rows {
         let Some(vector) = &row.vector else { continue };
         table.push(vec![
-            Cell::text(&row.name),
+            Cell::name(&row.name),
             Cell::fixed(row.histogram, 4),
             Cell::fixed(vector.white.frame, 4),
             Cell::fixed(row.pixel_histogram, 4),
@@ -362,7 +363,7 @@ pub fn section(text: &mut String, rows: &[Row]) {
         let Some(vector) = &row.vector else { continue };
         for t in &vector.tests {
             table.push(vec![
-                Cell::text(&row.name),
+                Cell::name(&row.name),
                 Cell::text(format!("{}: {}", t.function.name(), t.about)),
                 Cell::text(at_samples(Estimator::MonteCarlo.curve(&t.mask))),
                 Cell::text(at_samples(Estimator::MonteCarlo.curve(&t.white))),
