@@ -66,7 +66,7 @@ pub fn run(dirs: &[PathBuf], out: &Path, baseline_seed: Option<u64>) -> Result<(
     }
     let folders: Vec<String> = dirs
         .iter()
-        .map(|dir| format!("`{}`", dir.display()))
+        .map(|dir| format!("`{}`", crate::output::line_text(&dir.display().to_string())))
         .collect();
     let mut intro = format!("PNG slices analysed from {}.", folders.join(", "));
     for warning in &warnings {

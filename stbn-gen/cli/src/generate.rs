@@ -197,7 +197,7 @@ pub fn run(
     let mut intro = format!(
         "Masks of `{}`, written as {written_as} next to this report. Vector masks are measured \
          in their own space (\"Vector masks in their own space\").",
-        manifest.path().display()
+        crate::output::line_text(&manifest.path().display().to_string())
     );
     if let Some(budget) = swaps_per_pixel {
         intro.push_str(&format!(

@@ -482,8 +482,14 @@ fn figures(rows: &[Row]) -> Vec<Figure> {
                     if row.vector.is_some() {
                         return Vec::new();
                     }
+                    // Up to the mask's depth: past it a pixel's sequence repeats its frames,
+                    // and the curve would jump where it wraps.
                     let curve = estimator.curve(row.curves(integrand)).iter().enumerate();
-                    curve.map(|(k, &e)| ((k + 1) as f64, e)).collect()
+                    let depth = row.size.2 as usize;
+                    curve
+                        .take(depth)
+                        .map(|(k, &e)| ((k + 1) as f64, e))
+                        .collect()
                 })
                 .collect();
             let title = format!(
@@ -502,7 +508,9 @@ fn figures(rows: &[Row]) -> Vec<Figure> {
                     None,
                 ),
                 axes: "x: samples, log scale 1 to 100, grid at 1, 2, 5 × 10ᵏ; y: RMSE, log scale \
-                       0.001 to 1, grid at 1, 2, 5 × 10ᵏ.",
+                       0.001 to 1, grid at 1, 2, 5 × 10ᵏ. Each scalar mask's curve ends at its \
+                       depth, where its frames start to repeat; vector masks are judged by their \
+                       test functions instead.",
             });
         }
     }
@@ -997,6 +1005,37 @@ mod tests {
             pixel_histogram: 0.25,
             filtered: vec![0.5, 0.012345],
             ..Row::measure(name, "png 8-bit", seconds, &field).0
+        }
+    }
+
+    #[test]
+    fn convergence_curves_end_at_the_mask_depth_and_vector_masks_draw_none() {
+        let values = ramp_field();
+        let field = Field::new(8, 8, 4, &values).unwrap();
+        let scalar = Row::measure("scalar", "png 8-bit", None, &field).0;
+        let vector = Row {
+            vector: Some(VectorFigures {
+                space: "vec2",
+                components: Vec::new(),
+                white: stbn_gen::analysis::DistributionDeviation {
+                    frame: 0.0,
+                    pixel: 0.0,
+                },
+                tests: Vec::new(),
+            }),
+            ..Row::measure("vector", "Vec2", None, &field).0
+        };
+        let figures = figures(&[scalar, vector]);
+        let convergence: Vec<&Figure> = figures
+            .iter()
+            .filter(|f| f.file.starts_with("convergence_"))
+            .collect();
+        assert!(!convergence.is_empty());
+        for figure in convergence {
+            let series = &figure.chart.series;
+            // Four frames, four samples: no point past the depth, where the frames repeat.
+            assert_eq!(series[0].points.len(), 4, "{}", figure.file);
+            assert!(series[1].points.is_empty(), "{}", figure.file);
         }
     }
 

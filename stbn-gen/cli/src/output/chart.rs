@@ -274,7 +274,8 @@ pub struct Chart {
     pub x: Axis,
     /// Vertical axis.
     pub y: Axis,
-    /// The series, drawn in order. Empty series draw nothing but their legend entry.
+    /// The series, drawn in order. Empty series draw nothing and have no legend entry, but keep
+    /// their place in the palette.
     pub series: Vec<Series>,
     /// Where the legend goes (a corner the data leaves free).
     pub legend: SeriesLabelPosition,
@@ -492,7 +493,9 @@ fn render(chart: &Chart, text: bool) -> std::result::Result<Vec<u8>, Box<dyn std
                 root.draw(&PathElement::new(piece, colour.stroke_width(2)))?;
             }
             let drawn = plot.draw_series(LineSeries::new(line, colour.stroke_width(2)))?;
-            if text {
+            // An empty series keeps its colour (the same mask has the same colour in every
+            // plot) but gets no legend entry: the legend names only what is drawn.
+            if text && !points.is_empty() {
                 let label = match lies_on[i] {
                     Some(j) => format!("{} (= {})", series.name, chart.series[j].name),
                     None => series.name.clone(),
