@@ -955,6 +955,18 @@ fn spec_error_field(error: &SpecError, has_sigma_time: bool) -> (&'static str, S
                 number(*value)
             ),
         ),
+        SpecError::SigmaOutOfRange {
+            field,
+            value,
+            range,
+            reason,
+        } => (
+            sigma_field(field, has_sigma_time),
+            format!(
+                "must be {range} for this mask (got {}): {reason}",
+                number(*value)
+            ),
+        ),
         SpecError::InvalidDensity(value) => (
             "density",
             format!("must be in (0, 0.5] (got {})", number(*value)),
