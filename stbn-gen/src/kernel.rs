@@ -126,28 +126,35 @@ pub(crate) fn smallest_sigma(tolerance: f64) -> f64 {
     shown
 }
 
-/// `x > 0` rounded down to four significant digits.
+/// `x > 0` rounded down to four significant digits (a product that lands a rounding error
+/// below a four-digit figure, like 1.7 · 6, counts as that figure).
 pub(crate) fn round_down_4(x: f64) -> f64 {
-    let digits = 3 - x.log10().floor() as i32;
-    if digits >= 0 {
-        let scale = 10f64.powi(digits);
-        (x * scale).floor() / scale
-    } else {
-        let scale = 10f64.powi(-digits);
-        (x / scale).floor() * scale
-    }
+    round_4(x, f64::floor)
 }
 
-/// `x > 0` rounded up to four significant digits.
+/// `x > 0` rounded up to four significant digits (a product that lands a rounding error above
+/// a four-digit figure counts as that figure).
 pub(crate) fn round_up_4(x: f64) -> f64 {
+    round_4(x, f64::ceil)
+}
+
+/// `x` to four significant digits by `direction` (`floor` or `ceil`) of its scaled digits,
+/// snapping to the nearest figure within 10⁻⁹ of it.
+fn round_4(x: f64, direction: fn(f64) -> f64) -> f64 {
     // Dividing by an exact power of ten rounds correctly, so the result prints with four digits.
     let digits = 3 - x.log10().floor() as i32;
-    if digits >= 0 {
-        let scale = 10f64.powi(digits);
-        (x * scale).ceil() / scale
+    let scale = 10f64.powi(digits.abs());
+    let scaled = if digits >= 0 { x * scale } else { x / scale };
+    let nearest = scaled.round();
+    let figure = if (scaled - nearest).abs() <= 1e-9 * nearest {
+        nearest
     } else {
-        let scale = 10f64.powi(-digits);
-        (x / scale).ceil() * scale
+        direction(scaled)
+    };
+    if digits >= 0 {
+        figure / scale
+    } else {
+        figure * scale
     }
 }
 

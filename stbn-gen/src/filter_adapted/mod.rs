@@ -136,7 +136,8 @@ pub struct FilterAdaptedSpec {
 impl FilterAdaptedSpec {
     /// Default budget in swaps proposed per pixel (BENCHMARKS.md has the curve).
     pub const DEFAULT_SWAPS_PER_PIXEL: f64 = 6.0;
-    /// Largest σ of a Gaussian spatial filter, in lengths of the larger of `width` and `height`.
+    /// Largest σ of a Gaussian spatial filter, in lengths of the larger of `width` and `height`
+    /// (but never below the default filter's 1.3435, so that slices of 2 pixels keep it).
     ///
     /// The filter's autocorrelation, which weighs the pairs, is a Gaussian of `√2 σ`; folded
     /// onto an axis of `n` pixels it is its mean plus harmonics, the first of relative amplitude
@@ -274,17 +275,22 @@ impl FilterAdaptedSpec {
             }
         }
         let slice_length = self.width.max(self.height);
+        let default_sigma = match SpatialFilter::DEFAULT {
+            SpatialFilter::Gaussian { sigma } => sigma,
+            _ => 0.0,
+        };
+        let max = (Self::MAX_GAUSSIAN_SIGMA_PER_LENGTH * f64::from(slice_length)).max(default_sigma);
         if let SpatialFilter::Gaussian { sigma } = self.spatial_filter
             && slice_length >= 2
-            && sigma > Self::MAX_GAUSSIAN_SIGMA_PER_LENGTH * f64::from(slice_length)
+            && sigma > max
         {
-            let max = Self::MAX_GAUSSIAN_SIGMA_PER_LENGTH * f64::from(slice_length);
             return Err(FilterAdaptedSpecError::Filter {
                 field: "spatial_filter",
                 message: format!(
                     "Gaussian sigma is {}; for this mask it must be in [{:e}, {max}] (half the \
-                     slice's {slice_length} pixels): a wider Gaussian folds flat over the \
-                     wrapped slice, and no arrangement of a frame filters better than another",
+                     slice's {slice_length} pixels, or the default {default_sigma}): a wider \
+                     Gaussian folds flat over the wrapped slice, and no arrangement of a frame \
+                     filters better than another",
                     crate::spec::number(sigma),
                     filters::MIN_GAUSSIAN_SIGMA
                 ),
