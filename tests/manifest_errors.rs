@@ -846,7 +846,8 @@ fn a_sigma_outside_the_working_range_is_refused_at_its_line_with_the_range() {
     let err = error(&edit(12, "            sigma: 100.0,"));
     assert_eq!((err.line(), err.field()), (12, Some("sigma")));
     assert!(
-        err.message().starts_with("must be in [0.3072, 8] for this mask (got 100)"),
+        err.message()
+            .starts_with("must be in [0.3072, 8] for this mask (got 100)"),
         "{err}"
     );
     // A scalar mask's `sigma_time` against its 8 frames; a vector mask's `sigma` and

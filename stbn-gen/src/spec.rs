@@ -266,7 +266,11 @@ impl SigmaRange {
     /// Whether `value` is inside, by the displayed bounds (the validations test the exact
     /// arithmetic they stand for).
     pub fn contains(&self, value: f64) -> bool {
-        (if self.min > 0.0 { value >= self.min } else { value > 0.0 }) && value <= self.max
+        (if self.min > 0.0 {
+            value >= self.min
+        } else {
+            value > 0.0
+        }) && value <= self.max
     }
 }
 
@@ -438,10 +442,17 @@ mod tests {
         let xy = spec.sigma_range(false).unwrap();
         assert_eq!((xy.min, xy.max), (0.3072, 16.0));
         assert_eq!(spec.sigma_range(true).unwrap().max, 4.0);
-        assert_eq!(MaskSpec::new(2, 3, 2, 0).sigma_range(true).unwrap().max, 1.9);
+        assert_eq!(
+            MaskSpec::new(2, 3, 2, 0).sigma_range(true).unwrap().max,
+            1.9
+        );
         // The shown minimum is accepted, a hair below it is not.
         for (sigma, ok) in [(0.3072, true), (0.3071, false), (4.0, true), (4.01, false)] {
-            assert_eq!(spec.clone().with_sigma(sigma).validate().is_ok(), ok, "σ {sigma}");
+            assert_eq!(
+                spec.clone().with_sigma(sigma).validate().is_ok(),
+                ok,
+                "σ {sigma}"
+            );
         }
         // A one-pixel axis and Independent2D's σ_z have no range; the defaults fit every size.
         assert_eq!(MaskSpec::new(1, 1, 1, 0).sigma_range(false), None);
@@ -457,7 +468,10 @@ mod tests {
             ..spec
         };
         let min = loose.sigma_range(false).unwrap().min;
-        assert!((min - 1.0 / (2.0 * 10f64.ln()).sqrt()).abs() < 1e-3, "{min}");
+        assert!(
+            (min - 1.0 / (2.0 * 10f64.ln()).sqrt()).abs() < 1e-3,
+            "{min}"
+        );
     }
 
     #[test]

@@ -15,10 +15,10 @@ use std::fmt;
 use rand::Rng;
 use rayon::prelude::*;
 
+use crate::kernel::{round_down_4, round_up_4};
 use crate::observe::Observer;
 use crate::rng::{self, keyed_rng};
 use crate::space::{SampleSpace, hilbert_key, unit_hilbert_key};
-use crate::kernel::{round_down_4, round_up_4};
 use crate::spec::{MaskSpec, SigmaRange, SpecError};
 use crate::swap::energy::{keeps_unit_offset, value_factor_below_one};
 use crate::swap::{ASSIGNMENT_SET, SwapConfig, SwapKernel, SwapOptimizer};

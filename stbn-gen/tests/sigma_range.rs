@@ -33,8 +33,8 @@ fn sweep() -> Vec<f64> {
         values.push(10f64.powi(exponent));
     }
     values.extend([
-        0.2, 0.3, 0.31, 0.4, 0.44, 0.5, 0.7, 1.5, 1.9, 3.0, 4.0, 4.4, 4.5, 6.0, 8.0, 8.8, 9.0, 13.6,
-        14.0, 3e3, 4e3, 4.4e3, 5e3,
+        0.2, 0.3, 0.31, 0.4, 0.44, 0.5, 0.7, 1.5, 1.9, 3.0, 4.0, 4.4, 4.5, 6.0, 8.0, 8.8, 9.0,
+        13.6, 14.0, 3e3, 4e3, 4.4e3, 5e3,
     ]);
     values
 }
@@ -46,9 +46,14 @@ fn assert_refusal(message: &str, field: &str, value: f64) {
         "{field} = {value:e}: {message:?} does not name the field"
     );
     assert!(
-        ["must be in", "must be at least", "must be finite", "it must be"]
-            .iter()
-            .any(|needle| message.contains(needle)),
+        [
+            "must be in",
+            "must be at least",
+            "must be finite",
+            "it must be"
+        ]
+        .iter()
+        .any(|needle| message.contains(needle)),
         "{field} = {value:e}: {message:?} states no range"
     );
 }
@@ -56,13 +61,6 @@ fn assert_refusal(message: &str, field: &str, value: f64) {
 /// The mask's values as a field.
 fn field(w: u32, h: u32, d: u32, values: &[f64]) -> Field<'_> {
     Field::new(w as usize, h as usize, d as usize, values).unwrap()
-}
-
-/// `i` of `0..n` as a signed frequency in `(−n/2, n/2]`, over `n`.
-fn frequency(i: usize, n: usize) -> f64 {
-    let i = i as f64;
-    let n = n as f64;
-    if i > n / 2.0 { (i - n) / n } else { i / n }
 }
 
 /// The spectrum of the truncated kernel void-and-cluster uses for σ `sigmas` along axes of
@@ -255,14 +253,19 @@ fn void_and_cluster_sigmas_are_refused_or_give_blue_noise() {
                     // accepted and changes nothing.
                     assert_eq!(topology, EnergyTopology::Independent2D);
                     let reference = MaskSpec::new(w, h, d, 3).with_topology(topology);
-                    assert_eq!(generate(&reference, Observer::default()).unwrap().values(), values);
+                    assert_eq!(
+                        generate(&reference, Observer::default()).unwrap().values(),
+                        values
+                    );
                     continue;
                 };
                 assert!(range.contains(value), "{name} {value:e} outside {range}");
                 // Each topology by the energy it lowers: the slices' and the pixels' series for
                 // the spatiotemporal one, the slices for 2D, the whole volume for 3D.
                 let measure = |f: &Field| match (topology, z) {
-                    (EnergyTopology::Isotropic3D, _) => volume_figure(f, spec.sigma_xy, spec.sigma_z),
+                    (EnergyTopology::Isotropic3D, _) => {
+                        volume_figure(f, spec.sigma_xy, spec.sigma_z)
+                    }
                     (_, true) => temporal_figure(f, value),
                     (_, false) => spatial_figure(f, value),
                 };
@@ -303,7 +306,10 @@ fn baseline_sigmas_are_refused_or_give_blue_slices() {
             // Tellusim's σ is in its convention, for its own kernel.
             let measure = |f: &Field| {
                 if kind == BaselineKind::TellusimLayered {
-                    figure(&spatial_power(f), &tellusim_spectrum(f.width(), f.height(), value))
+                    figure(
+                        &spatial_power(f),
+                        &tellusim_spectrum(f.width(), f.height(), value),
+                    )
                 } else {
                     spatial_figure(f, value)
                 }
@@ -360,7 +366,11 @@ fn vector_sigmas_are_refused_or_lower_the_energy() {
                 );
                 accepted += 1;
             }
-            assert!(accepted > 10, "{} {field}: only {accepted} accepted", space.name());
+            assert!(
+                accepted > 10,
+                "{} {field}: only {accepted} accepted",
+                space.name()
+            );
         }
     }
 }
@@ -401,9 +411,15 @@ fn filter_adapted_sigmas_are_refused_or_lower_the_energy() {
         };
         for value in sweep() {
             let (s, t) = if spatial {
-                (SpatialFilter::Gaussian { sigma: value }, TemporalFilter::DEFAULT)
+                (
+                    SpatialFilter::Gaussian { sigma: value },
+                    TemporalFilter::DEFAULT,
+                )
             } else {
-                (SpatialFilter::DEFAULT, TemporalFilter::Gaussian { sigma: value })
+                (
+                    SpatialFilter::DEFAULT,
+                    TemporalFilter::Gaussian { sigma: value },
+                )
             };
             let spec = FilterAdaptedSpec::new(w, h, d, 3)
                 .with_filters(s, t, FilterCombination::Product)
@@ -432,7 +448,9 @@ fn filter_adapted_sigmas_are_refused_or_lower_the_energy() {
 fn a_huge_sigma_is_refused_at_once() {
     let start = std::time::Instant::now();
     let spec = MaskSpec::new(128, 128, 32, 1).with_sigma(1e300);
-    let message = generate(&spec, Observer::default()).unwrap_err().to_string();
+    let message = generate(&spec, Observer::default())
+        .unwrap_err()
+        .to_string();
     assert_refusal(&message, "sigma_xy", 1e300);
     assert!(message.contains("in [0.3072, 64]"), "{message}");
     let spec = VectorSpec::new(128, 128, 32, 1, SampleSpace::UnitVec3);

@@ -279,7 +279,8 @@ impl FilterAdaptedSpec {
             SpatialFilter::Gaussian { sigma } => sigma,
             _ => 0.0,
         };
-        let max = (Self::MAX_GAUSSIAN_SIGMA_PER_LENGTH * f64::from(slice_length)).max(default_sigma);
+        let max =
+            (Self::MAX_GAUSSIAN_SIGMA_PER_LENGTH * f64::from(slice_length)).max(default_sigma);
         if let SpatialFilter::Gaussian { sigma } = self.spatial_filter
             && slice_length >= 2
             && sigma > max

@@ -312,7 +312,8 @@ impl SwapKernel {
     /// The sum of every pair weight (spatial and temporal taps), dimensionless: a pixel's energy
     /// if every value factor were 1.
     pub fn total_weight(&self) -> f64 {
-        self.spatial.iter().map(|t| t.2).sum::<f64>() + self.temporal.iter().map(|t| t.1).sum::<f64>()
+        self.spatial.iter().map(|t| t.2).sum::<f64>()
+            + self.temporal.iter().map(|t| t.1).sum::<f64>()
     }
 
     /// The value factors' mean over the interacting pairs of a mask of energy `energy`

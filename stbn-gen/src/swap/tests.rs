@@ -219,16 +219,16 @@ fn tiny_and_huge_value_sigma_terminate() {
         }
         assert_eq!(optimizer.swaps_attempted(), 3 * 16 * 12 * 4);
         for _ in 0..VectorSpec::DEFAULT_ASSIGNMENT_PASSES {
-            energies.push(optimizer.run_assignment_pass(ASSIGNMENT_SET, &mut |_| {}).energy);
+            energies.push(
+                optimizer
+                    .run_assignment_pass(ASSIGNMENT_SET, &mut |_| {})
+                    .energy,
+            );
         }
         for pair in energies.windows(2) {
             assert!(pair[1] <= pair[0]);
         }
-        let after = VectorVolume::new(
-            (16, 12, 4),
-            &spec.space,
-            optimizer.into_values(),
-        );
+        let after = VectorVolume::new((16, 12, 4), &spec.space, optimizer.into_values());
         assert_eq!(multisets(&before), multisets(&after));
     }
     // Huge σi (the largest accepted, 1.7 slice lengths): the footprint covers whole (small)
