@@ -1042,3 +1042,49 @@ fn a_manifest_that_is_not_utf8_names_the_offset() {
     );
     assert!(err.contains("assets.ron"), "{err}");
 }
+
+#[test]
+fn a_sigma_outside_the_working_range_is_refused_at_its_line_with_the_range() {
+    // Line 12 is `sigma` of the 16×16×8 Blue2D mask: 0.2 leaves its kernel no neighbour, 100 is
+    // far wider than its 16-pixel slice.
+    let err = error(&edit(12, "            sigma: 0.2,"));
+    assert_eq!(
+        (err.line(), err.column(), err.field()),
+        (12, 20, Some("sigma"))
+    );
+    assert!(
+        err.to_string().starts_with(
+            "assets.ron:12:20: mask \"foo\", field `sigma`: must be in [0.3072, 8] for this \
+             mask (got 0.2): below 0.3072"
+        ),
+        "{err}"
+    );
+    let err = error(&edit(12, "            sigma: 100.0,"));
+    assert_eq!((err.line(), err.field()), (12, Some("sigma")));
+    assert!(
+        err.message()
+            .starts_with("must be in [0.3072, 8] for this mask (got 100)"),
+        "{err}"
+    );
+    // A scalar mask's `sigma_time` against its 8 frames; a vector mask's `sigma` and
+    // `sigma_value`.
+    for (kind, field, value, range) in [
+        ("Scalar", "sigma_time", "9.0", "in [0.3072, 4]"),
+        ("Vec2", "sigma", "0.2", "in [0.4345, 27.2]"),
+        ("Vec2", "sigma_value", "1e4", "in (0, "),
+        ("CosineHemisphere", "sigma_value", "1e30", "in (0, "),
+    ] {
+        let text = format!(
+            "(masks: [(name: \"m\", kind: {kind}, size: (16, 16, 8), seed: 1,\n    {field}: \
+             {value}, encoding: Unorm8)])"
+        );
+        let err = error(&text);
+        assert_eq!(
+            (err.line(), err.column(), err.field()),
+            (2, 7 + field.len(), Some(field)),
+            "{kind}: {err}"
+        );
+        assert!(err.message().starts_with("must be "), "{kind}: {err}");
+        assert!(err.message().contains(range), "{kind}: {err}");
+    }
+}

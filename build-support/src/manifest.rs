@@ -978,6 +978,18 @@ fn spec_error_field(error: &SpecError, has_sigma_time: bool) -> (&'static str, S
                 number(*value)
             ),
         ),
+        SpecError::SigmaOutOfRange {
+            field,
+            value,
+            range,
+            reason,
+        } => (
+            sigma_field(field, has_sigma_time),
+            format!(
+                "must be {range} for this mask (got {}): {reason}",
+                number(*value)
+            ),
+        ),
         SpecError::InvalidDensity(value) => (
             "density",
             format!("must be in (0, 0.5] (got {})", number(*value)),
@@ -1421,10 +1433,10 @@ mod tests {
 
     #[test]
     fn sigma_time_defaults_to_sigma_and_some_is_accepted() {
-        let text = manifest("            sigma: Some(2.5),\n            compression: Deflate,\n");
+        let text = manifest("            sigma: Some(2.0),\n            compression: Deflate,\n");
         let m = Manifest::parse(&text, "m.ron").unwrap();
         let spec = m.masks()[0].spec();
-        assert_eq!((spec.sigma_xy, spec.sigma_z), (2.5, 2.5));
+        assert_eq!((spec.sigma_xy, spec.sigma_z), (2.0, 2.0));
         assert_eq!(m.masks()[0].compression, Compression::Deflate);
     }
 

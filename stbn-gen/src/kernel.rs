@@ -100,6 +100,64 @@ pub struct EnergyKernel {
 /// tolerance anyway.
 const MAX_PERIODS: i64 = 2;
 
+/// `2 ln(1/tolerance)`: the largest `d²/σ²` whose weight `exp(−d²/(2σ²))` survives truncation.
+fn cutoff(tolerance: f64) -> f64 {
+    2.0 * (1.0 / tolerance).ln()
+}
+
+/// Whether the kernel of σ `sigma` (pixels or frames) at truncation `tolerance` keeps the offset
+/// 1 along its axis: the two tests [`EnergyKernel::new`] makes of that offset, the same
+/// arithmetic (it is enumerated, and its weight is above the tolerance). Without it a pixel sends
+/// energy to no neighbour along the axis, and every arrangement there has the same energy.
+pub(crate) fn keeps_unit_offset(sigma: f64, tolerance: f64) -> bool {
+    let cutoff = cutoff(tolerance);
+    (sigma * cutoff.sqrt()).floor() >= 1.0 && 1.0 / (sigma * sigma) <= cutoff
+}
+
+/// The smallest σ [`keeps_unit_offset`] accepts at `tolerance`, rounded up to four significant
+/// digits (so the figure a message shows is itself accepted): about `1/√(2 ln(1/tolerance))`,
+/// 0.3072 at the default 5·10⁻³.
+pub(crate) fn smallest_sigma(tolerance: f64) -> f64 {
+    let exact = 1.0 / cutoff(tolerance).sqrt();
+    let mut shown = round_up_4(exact);
+    while !keeps_unit_offset(shown, tolerance) {
+        shown = round_up_4(shown * (1.0 + 1e-4));
+    }
+    shown
+}
+
+/// `x > 0` rounded down to four significant digits (a product that lands a rounding error
+/// below a four-digit figure, like 1.7 · 6, counts as that figure).
+pub(crate) fn round_down_4(x: f64) -> f64 {
+    round_4(x, f64::floor)
+}
+
+/// `x > 0` rounded up to four significant digits (a product that lands a rounding error above
+/// a four-digit figure counts as that figure).
+pub(crate) fn round_up_4(x: f64) -> f64 {
+    round_4(x, f64::ceil)
+}
+
+/// `x` to four significant digits by `direction` (`floor` or `ceil`) of its scaled digits,
+/// snapping to the nearest figure within 10⁻⁹ of it.
+fn round_4(x: f64, direction: fn(f64) -> f64) -> f64 {
+    // Dividing by an exact power of ten rounds correctly, so the result prints with four digits.
+    let digits = 3 - x.log10().floor() as i32;
+    let scale = 10f64.powi(digits.abs());
+    let scaled = if digits >= 0 { x * scale } else { x / scale };
+    let nearest = scaled.round();
+    let figure = if (scaled - nearest).abs() <= 1e-9 * nearest {
+        nearest
+    } else {
+        direction(scaled)
+    };
+    if digits >= 0 {
+        figure / scale
+    } else {
+        figure * scale
+    }
+}
+
 impl EnergyKernel {
     /// Exclusive bound on the sum of all fixed-point weights.
     pub const MAX_TOTAL: u64 = 1 << 31;
@@ -108,7 +166,7 @@ impl EnergyKernel {
     pub fn new(spec: &MaskSpec) -> EnergyKernel {
         let (w, h, d) = (spec.width, spec.height, spec.depth);
         // exp(-r²/2σ²) >= tol  <=>  r²/σ² <= 2 ln(1/tol)
-        let cutoff = 2.0 * (1.0 / spec.kernel_tolerance).ln();
+        let cutoff = cutoff(spec.kernel_tolerance);
         let reach = |sigma: f64, size: u32| -> i64 {
             let r = (sigma * cutoff.sqrt()).floor();
             let cap = MAX_PERIODS * i64::from(size);

@@ -83,6 +83,17 @@ impl SampleSpace {
         }
     }
 
+    /// An upper bound on the squared distance between two values of the space: `dims` for
+    /// points of the unit cube (`Vec`, `ImagePoints`), 4 for signs and unit directions
+    /// (antipodes).
+    pub(crate) fn largest_squared_distance(&self) -> f32 {
+        match self {
+            SampleSpace::Vec { dims } => f32::from(*dims),
+            SampleSpace::ImagePoints(_) => 2.0,
+            _ => 4.0,
+        }
+    }
+
     /// Parameters of each value: the dimension of the unit cube its stratified sets correspond to
     /// ([`StratifiedSampler::slice_with_parameters`]): `dims` for [`SampleSpace::Vec`], 1 for the
     /// sign of `UnitVec1` and the angle of `UnitVec2`, 2 for spheres, hemispheres and images.

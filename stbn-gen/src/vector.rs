@@ -15,11 +15,13 @@ use std::fmt;
 use rand::Rng;
 use rayon::prelude::*;
 
+use crate::kernel::{round_down_4, round_up_4};
 use crate::observe::Observer;
 use crate::rng::{self, keyed_rng};
 use crate::space::{SampleSpace, hilbert_key, unit_hilbert_key};
-use crate::spec::{MaskSpec, SpecError};
-use crate::swap::{ASSIGNMENT_SET, SwapConfig, SwapOptimizer};
+use crate::spec::{MaskSpec, SigmaRange, SpecError};
+use crate::swap::energy::{keeps_unit_offset, value_factor_below_one};
+use crate::swap::{ASSIGNMENT_SET, SwapConfig, SwapKernel, SwapOptimizer};
 use crate::trace::{EnergyTrace, TracePoint};
 
 /// How each frame's stratified values are arranged before a vector or filter-adapted mask is
@@ -98,11 +100,15 @@ pub struct VectorSpec {
     pub seed: u64,
     /// What each pixel holds.
     pub space: SampleSpace,
-    /// σi of the energy `exp(−‖p−q‖²/σi² − ‖Vp−Vq‖^(d/3)/σs²)`, in pixels (and frames); finite,
-    /// `> 0`. The paper uses 1.9.
+    /// σi of the energy `exp(−‖p−q‖²/σi² − ‖Vp−Vq‖^(d/3)/σs²)`, in pixels (and frames). The
+    /// paper uses 1.9. Finite, and unless the volume is a single pixel, in
+    /// [`VectorSpec::sigma_image_range`]: at least about 0.43 (at the default tolerance), at most
+    /// [`VectorSpec::MAX_SIGMA_IMAGE_PER_LENGTH`] times the larger of `width` and `height`.
     pub sigma_image: f64,
-    /// σs of the energy, in value units (the value term is `‖Vp−Vq‖^(d/3) / σs²`); finite, `> 0`.
-    /// The paper uses 1.0.
+    /// σs of the energy, in value units (the value term is `‖Vp−Vq‖^(d/3) / σs²`). The paper
+    /// uses 1.0. Finite, `> 0`, at most [`VectorSpec::sigma_value_range`]'s bound (6501 for
+    /// `Vec2`, 8191 for 3D directions); and large enough for the mask's value spacing, which the generator checks as
+    /// it runs ([`crate::generate_vector`]).
     pub sigma_value: f64,
     /// Optimisation budget: swaps proposed per pixel, finite, in
     /// `0..=`[`VectorSpec::MAX_SWAPS_PER_PIXEL`]. Each whole unit is one pass in which every pixel
@@ -149,6 +155,16 @@ impl VectorSpec {
     pub const MAX_ASSIGNMENT_PASSES: u32 = 1000;
     /// Largest extent of one axis.
     pub const MAX_AXIS: u32 = MaskSpec::MAX_AXIS;
+    /// Largest σi accepted, in lengths of the larger of `width` and `height`.
+    ///
+    /// The pair weight `exp(−d²/σi²)` is a Gaussian of σ `σi/√2`; wrapped onto an axis of `n`
+    /// pixels it is its mean plus harmonics, the first of relative amplitude `2·exp(−π²σi²/n²)`.
+    /// At `σi = 1.7 n` a swap's energy change through that variation (two pixels' taps, each
+    /// pair counted twice) is at most `4 · 2·exp(−π²·1.7²)` ≈ 3.3·10⁻¹² of the kernel's total
+    /// weight, below the margin a swap must beat (10⁻¹¹ of it). Beyond it the weights are flat
+    /// over the slice: the energy no longer tells one arrangement of a slice from another, only
+    /// which values share a pixel over time, at a footprint of the whole slice per pixel.
+    pub const MAX_SIGMA_IMAGE_PER_LENGTH: f64 = 1.7;
     /// Largest number of pixels of one slice.
     pub const MAX_SLICE_PIXELS: u64 = MaskSpec::MAX_SLICE_PIXELS;
     /// Largest number of pixels of a volume.
@@ -217,6 +233,60 @@ impl VectorSpec {
         }
     }
 
+    /// The σi `sigma_image` must lie in: `None` for a volume of one pixel (no pairs). Needs a
+    /// valid `kernel_tolerance`.
+    ///
+    /// Below `min` the weight `exp(−1/σi²)` of the nearest neighbour falls under
+    /// `kernel_tolerance` (about `1/√ln(1/kernel_tolerance)`, 0.4345 at the default 5·10⁻³; the
+    /// check is the kernel's own arithmetic): no pixel has a neighbour and no swap changes the
+    /// energy. Above `max` ([`VectorSpec::MAX_SIGMA_IMAGE_PER_LENGTH`] times the larger of
+    /// `width` and `height`, infinite for slices of one pixel) the weights are flat over the
+    /// slice.
+    pub fn sigma_image_range(&self) -> Option<SigmaRange> {
+        let tolerance = self.kernel_tolerance;
+        let exact = 1.0 / (1.0 / tolerance).ln().sqrt();
+        let mut min = round_up_4(exact);
+        while !keeps_unit_offset(min, tolerance) {
+            min = round_up_4(min * (1.0 + 1e-4));
+        }
+        let slice_length = self.width.max(self.height);
+        let max = if slice_length >= 2 {
+            round_down_4(Self::MAX_SIGMA_IMAGE_PER_LENGTH * f64::from(slice_length))
+        } else {
+            f64::INFINITY
+        };
+        (self.pixels() > 1).then_some(SigmaRange { min, max })
+    }
+
+    /// The σs `sigma_value` must lie in, `(0, max]`: above `max` the value factor
+    /// `exp(−x)` of the space's largest distance rounds to 1 in single precision (where the
+    /// optimiser evaluates it; `x` below about 3·10⁻⁸), so every factor is 1 and every
+    /// arrangement has the same energy. `max` is 5792 to 9195 by space (6501 for `Vec2`, 8191
+    /// for 3D directions); the check is the factor's own arithmetic, and `max` is found by
+    /// bisection on it (rounded down to four significant digits).
+    ///
+    /// How small σs may be depends on how closely the mask's values are spaced, which depends on
+    /// its size: the generator checks that as it runs ([`crate::generate_vector`]).
+    pub fn sigma_value_range(&self) -> SigmaRange {
+        let (dims, s) = (self.space.dims(), self.space.largest_squared_distance());
+        let distinguishes = |sigma: f64| value_factor_below_one(dims, s, sigma);
+        // distinguishes(1) holds for every space; bisect in log space between 1 and 1e30.
+        let (mut low, mut high) = (0.0f64, 30.0f64);
+        for _ in 0..80 {
+            let mid = 0.5 * (low + high);
+            if distinguishes(10f64.powf(mid)) {
+                low = mid;
+            } else {
+                high = mid;
+            }
+        }
+        let mut max = round_down_4(10f64.powf(low));
+        while !distinguishes(max) {
+            max = round_down_4(max * (1.0 - 1e-4));
+        }
+        SigmaRange { min: 0.0, max }
+    }
+
     /// Checks every field against its documented range. Sizes are checked before anything is
     /// allocated, and an oversized request reports the memory it would have taken.
     pub fn validate(&self) -> Result<(), VectorSpecError> {
@@ -252,6 +322,53 @@ impl VectorSpec {
         }
         if !(self.kernel_tolerance > 0.0 && self.kernel_tolerance < 1.0) {
             return Err(SpecError::InvalidTolerance(self.kernel_tolerance).into());
+        }
+        if let Some(range) = self.sigma_image_range() {
+            let value = self.sigma_image;
+            let reason = if !keeps_unit_offset(value, self.kernel_tolerance) {
+                Some(format!(
+                    "below {} the nearest neighbour's weight exp(−1/σ²) falls under \
+                     `kernel_tolerance` {}, so no pixel has a neighbour and no swap changes the \
+                     energy",
+                    range.min, self.kernel_tolerance
+                ))
+            } else if value > range.max {
+                Some(format!(
+                    "above {} ({} times the slice's {} pixels) the weights are flat over the \
+                     wrapped slice to below the margin a swap must beat, so the energy tells no \
+                     arrangement of a slice from another",
+                    range.max,
+                    Self::MAX_SIGMA_IMAGE_PER_LENGTH,
+                    self.width.max(self.height)
+                ))
+            } else {
+                None
+            };
+            if let Some(reason) = reason {
+                return Err(SpecError::SigmaOutOfRange {
+                    field: "sigma_image",
+                    value,
+                    range,
+                    reason,
+                }
+                .into());
+            }
+        }
+        let range = self.sigma_value_range();
+        if self.sigma_value > range.max {
+            return Err(SpecError::SigmaOutOfRange {
+                field: "sigma_value",
+                value: self.sigma_value,
+                range,
+                reason: format!(
+                    "above {} the value factor exp(−‖Δv‖^(d/3)/σs²) of even the farthest values \
+                     of {} rounds to 1 in single precision, so every arrangement has the same \
+                     energy",
+                    range.max,
+                    self.space.name()
+                ),
+            }
+            .into());
         }
         if !(0.0..=Self::MAX_SWAPS_PER_PIXEL).contains(&self.swaps_per_pixel) {
             return Err(VectorSpecError::InvalidBudget(self.swaps_per_pixel));
@@ -455,11 +572,12 @@ pub(crate) fn generate(
     if spec.initial_arrangement == InitialArrangement::ScalarStbnPerAxis {
         optimizer = optimizer.without_partner_ramp();
     }
+    let start_energy = optimizer.energy();
     let mut trace = EnergyTrace {
         points: vec![TracePoint {
             swaps_attempted: 0,
             swaps_accepted: 0,
-            energy: optimizer.energy(),
+            energy: start_energy,
         }],
     };
     // ⌈swaps_per_pixel⌉ swap passes (the last one partial), then the assignment passes, each
@@ -480,6 +598,9 @@ pub(crate) fn generate(
         } else {
             optimizer.run_assignment_pass(ASSIGNMENT_SET, &mut report)
         };
+        if pass == 0 && point.swaps_accepted == 0 && point.swaps_attempted > 0 {
+            underflow_check(spec, optimizer.kernel(), start_energy)?;
+        }
         trace.points.push(point);
     }
     observer.finish(trace);
@@ -488,6 +609,52 @@ pub(crate) fn generate(
         &spec.space,
         optimizer.into_values(),
     ))
+}
+
+/// After a first pass that kept no move: an error naming `sigma_value` if the value factors
+/// underflow, so that no arrangement's energy differs from another's by the margin a move must
+/// beat.
+///
+/// The value factor `exp(−‖Δv‖^(d/3)/σs²)` of a pair is below 10⁻¹¹ once its argument passes
+/// `ln 10¹¹` ≈ 25.3 (and clamped to `e^−87` from 87 on). Whether the mask's pairs get there
+/// depends on how closely its values are spaced, so on its size: the check is made on the run
+/// itself. If the factors' mean over the interacting pairs of the start is below
+/// [`SwapKernel::MARGIN`] (relative to the kernel's weight, the margin's own scale) and the pass
+/// kept nothing, the value term has underflowed. The message estimates the smallest σs that
+/// keeps neighbouring values in range from the values' spacing: `n` values of `p` parameters
+/// spread over a diameter `D` lie about `D · n^(−1/p)` apart.
+fn underflow_check(
+    spec: &VectorSpec,
+    kernel: &SwapKernel,
+    start_energy: f64,
+) -> Result<(), VectorSpecError> {
+    let Some(mean) = kernel.mean_value_factor(start_energy) else {
+        return Ok(());
+    };
+    if mean >= SwapKernel::MARGIN {
+        return Ok(());
+    }
+    let diameter = f64::from(spec.space.largest_squared_distance()).sqrt();
+    let parameters = spec.space.parameters() as f64;
+    let spacing = diameter * (spec.slice_pixels() as f64).powf(-1.0 / parameters);
+    let power = spec.space.dims() as f64 / 3.0;
+    let estimate = (spacing.powf(power) / (1.0 / SwapKernel::MARGIN).ln()).sqrt();
+    let max = spec.sigma_value_range().max;
+    Err(SpecError::SigmaOutOfRange {
+        field: "sigma_value",
+        value: spec.sigma_value,
+        range: SigmaRange {
+            min: round_up_4(estimate).min(max),
+            max,
+        },
+        reason: format!(
+            "the first pass kept no swap: the value factors exp(−‖Δv‖^(d/3)/σs²) of the mask's \
+             interacting pairs average {mean:.1e}, below the margin a swap must beat, so every \
+             arrangement has the same energy (the lower bound is an estimate from this size's \
+             value spacing, about {spacing:.2e})"
+        ),
+    }
+    .into())
 }
 
 /// Each slice's stratified set of `space` (one random stream per slice), arranged as

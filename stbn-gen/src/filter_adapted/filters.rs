@@ -95,11 +95,22 @@ impl SpatialFilter {
     }
 }
 
-/// The problem with a Gaussian filter's `sigma`, if it is not finite, `> 0` and `<= max`.
+/// The problem with a Gaussian filter's `sigma`, if it is not in `[`[`MIN_GAUSSIAN_SIGMA`]`,
+/// max]`.
 fn check_gaussian(sigma: f64, max: f64) -> Option<String> {
-    (!(sigma.is_finite() && sigma > 0.0 && sigma <= max))
-        .then(|| format!("Gaussian sigma is {sigma}; it must be finite, > 0 and <= {max}"))
+    (!(sigma >= MIN_GAUSSIAN_SIGMA && sigma <= max)).then(|| {
+        format!(
+            "Gaussian sigma is {}; it must be in [{MIN_GAUSSIAN_SIGMA:e}, {max}] (below, \
+             1/(2σ²) overflows and the filter's weights are not a Gaussian's)",
+            crate::spec::number(sigma)
+        )
+    })
 }
+
+/// Smallest Gaussian filter σ, in pixels or frames: below about 7.5·10⁻¹⁵⁵ the weights'
+/// `1/(2σ²)` overflows, the centre weight becomes `e^−708` like the others and the filter a
+/// three-tap box. Every σ below about 0.2 gives the same filter (the pixel alone) anyway.
+pub(crate) const MIN_GAUSSIAN_SIGMA: f64 = 1e-150;
 
 /// The problem with a box filter's `size`, if it is not in `1..=max`.
 fn check_box(size: u32, max: u32) -> Option<String> {

@@ -136,6 +136,18 @@ pub struct FilterAdaptedSpec {
 impl FilterAdaptedSpec {
     /// Default budget in swaps proposed per pixel (BENCHMARKS.md has the curve).
     pub const DEFAULT_SWAPS_PER_PIXEL: f64 = 6.0;
+    /// Largest σ of a Gaussian spatial filter, in lengths of the larger of `width` and `height`
+    /// (but never below the default filter's 1.3435, so that slices of 2 pixels keep it).
+    ///
+    /// The filter's autocorrelation, which weighs the pairs, is a Gaussian of `√2 σ`; folded
+    /// onto an axis of `n` pixels it is its mean plus harmonics, the first of relative amplitude
+    /// `2·exp(−4π²σ²/n²)`: 1.0·10⁻⁴ at `σ = n/2`, 4·10⁻⁷ at `0.625 n`, where the integer weights
+    /// (a total of 2²² over the slice: 1.5·10⁻⁵ of their mean per unit on 8×8) no longer resolve
+    /// it. Beyond half the slice the pair weights are flat and every arrangement of a frame has
+    /// the same energy (8×8 and 16×16 kept no swap from 0.625 n on,
+    /// `tests/sigma_range.rs`). A temporal Gaussian needs no such bound: flat over time, the
+    /// spatial filter still orders each frame.
+    pub const MAX_GAUSSIAN_SIGMA_PER_LENGTH: f64 = 0.5;
     /// Default truncation of the pair weights.
     pub const DEFAULT_KERNEL_TOLERANCE: f64 = 5e-3;
     /// Largest budget accepted.
@@ -261,6 +273,29 @@ impl FilterAdaptedSpec {
             if let Some(message) = problem {
                 return Err(FilterAdaptedSpecError::Filter { field, message });
             }
+        }
+        let slice_length = self.width.max(self.height);
+        let default_sigma = match SpatialFilter::DEFAULT {
+            SpatialFilter::Gaussian { sigma } => sigma,
+            _ => 0.0,
+        };
+        let max =
+            (Self::MAX_GAUSSIAN_SIGMA_PER_LENGTH * f64::from(slice_length)).max(default_sigma);
+        if let SpatialFilter::Gaussian { sigma } = self.spatial_filter
+            && slice_length >= 2
+            && sigma > max
+        {
+            return Err(FilterAdaptedSpecError::Filter {
+                field: "spatial_filter",
+                message: format!(
+                    "Gaussian sigma is {}; for this mask it must be in [{:e}, {max}] (half the \
+                     slice's {slice_length} pixels, or the default {default_sigma}): a wider \
+                     Gaussian folds flat over the wrapped slice, and no arrangement of a frame \
+                     filters better than another",
+                    crate::spec::number(sigma),
+                    filters::MIN_GAUSSIAN_SIGMA
+                ),
+            });
         }
         if !(self.kernel_tolerance > 0.0 && self.kernel_tolerance < 1.0) {
             return Err(SpecError::InvalidTolerance(self.kernel_tolerance).into());

@@ -432,20 +432,20 @@ mod tests {
         }
     }
 
-    /// A kernel without taps (σi far below a pixel) has no energy: assignment passes keep every
-    /// value where it is and report no change.
+    /// A kernel without taps (σi far below a pixel, which validation refuses) has no energy:
+    /// assignment passes keep every value where it is and report no change.
     #[test]
     fn assignment_passes_without_taps_change_nothing() {
         use crate::SampleSpace;
-        let spec = VectorSpec {
-            sigma_image: 0.05,
-            ..VectorSpec::new(40, 36, 2, 4, SampleSpace::Vec { dims: 2 })
-        }
-        .unoptimised();
-        let start = crate::generate_vector(&spec, crate::Observer::default())
+        let valid = VectorSpec::new(40, 36, 2, 4, SampleSpace::Vec { dims: 2 }).unoptimised();
+        let start = crate::generate_vector(&valid, crate::Observer::default())
             .unwrap()
             .values()
             .to_vec();
+        let spec = VectorSpec {
+            sigma_image: 0.05,
+            ..valid
+        };
         let mut o = SwapOptimizer::new(&spec, start.clone());
         assert_eq!(o.kernel().spatial.len() + o.kernel().temporal.len(), 0);
         o.run_assignment_pass(ASSIGNMENT_SET, &mut |_| {});

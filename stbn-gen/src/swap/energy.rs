@@ -176,6 +176,29 @@ pub(super) fn value_factors_and_arguments<const D: usize, const L: usize>(
     }
 }
 
+/// Whether the pair weight `exp(−d²/σi²)` of σi `sigma_image` at distance 1 survives the
+/// truncation at `tolerance`: the test [`SwapKernel::new`] makes of each tap, the same
+/// arithmetic. Without it a pixel has no neighbour and no swap changes the energy.
+pub(crate) fn keeps_unit_offset(sigma_image: f64, tolerance: f64) -> bool {
+    let inv_si = 1.0 / (sigma_image * sigma_image);
+    exp_neg(inv_si) >= tolerance
+}
+
+/// Whether the value factor ([`value_factor`]) of two values `dims` components each, at squared
+/// distance `s`, with σs `sigma_value`, is below 1: where it is 1 at the space's largest
+/// distance, it is 1 for every pair (the factor falls with the distance), and every arrangement
+/// has the same energy.
+pub(crate) fn value_factor_below_one(dims: usize, s: f32, sigma_value: f64) -> bool {
+    let inv = (1.0 / (sigma_value * sigma_value)) as f32;
+    let factor = match dims {
+        1 => value_factor::<1>(s, inv),
+        2 => value_factor::<2>(s, inv),
+        3 => value_factor::<3>(s, inv),
+        _ => value_factor::<4>(s, inv),
+    };
+    factor < 1.0
+}
+
 /// The truncated, folded pair weights of one vector mask's energy and the value factor's
 /// parameters.
 #[derive(Clone, Debug)]
@@ -281,10 +304,30 @@ impl SwapKernel {
             spatial,
             temporal,
             inv_sigma_value_sq: (1.0 / (config.sigma_value * config.sigma_value)) as f32,
-            margin: 1e-11 * total,
+            margin: Self::MARGIN * total,
             modelled_assignment: config.parameters <= 2,
         }
     }
+
+    /// The sum of every pair weight (spatial and temporal taps), dimensionless: a pixel's energy
+    /// if every value factor were 1.
+    pub fn total_weight(&self) -> f64 {
+        self.spatial.iter().map(|t| t.2).sum::<f64>()
+            + self.temporal.iter().map(|t| t.1).sum::<f64>()
+    }
+
+    /// The value factors' mean over the interacting pairs of a mask of energy `energy`
+    /// ([`SwapOptimizer::energy`](super::SwapOptimizer::energy)): `energy / (½ · pixels ·`
+    /// [`total_weight`](SwapKernel::total_weight)`)`, in `[e^−87, 1]`; `None` without pairs.
+    pub fn mean_value_factor(&self, energy: f64) -> Option<f64> {
+        let pixels = self.slice_pixels() as f64 * f64::from(self.depth);
+        let pairs = 0.5 * pixels * self.total_weight();
+        (pairs > 0.0).then(|| energy / pairs)
+    }
+
+    /// The energy change a swap must beat to be accepted, relative to
+    /// [`total_weight`](SwapKernel::total_weight).
+    pub const MARGIN: f64 = 1e-11;
 
     /// Largest `|dz|` of a temporal tap, in frames.
     pub fn reach_frames(&self) -> u32 {

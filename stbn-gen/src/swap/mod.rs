@@ -96,7 +96,7 @@
 //! - `simd`: the tile loop compiled for AVX-512, AVX2 or the portable baseline.
 
 mod assignment;
-mod energy;
+pub(crate) mod energy;
 mod model;
 mod pair;
 mod region;
@@ -280,7 +280,6 @@ impl SwapOptimizer {
     }
 
     /// The energy kernel.
-    #[cfg(test)]
     pub fn kernel(&self) -> &SwapKernel {
         &self.kernel
     }

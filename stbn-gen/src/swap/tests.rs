@@ -4,7 +4,7 @@
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::{SwapKernel, SwapOptimizer};
+use super::{ASSIGNMENT_SET, SwapKernel, SwapOptimizer};
 use crate::{
     EnergyTrace, InitialArrangement, Observer, SampleSpace, VectorSpec, VectorSpecError,
     VectorVolume,
@@ -197,32 +197,44 @@ fn extreme_shapes_generate_and_keep_their_multisets() {
 #[test]
 fn tiny_and_huge_value_sigma_terminate() {
     // Vec3's assignment passes cost exactly, Vec2's on models; 1e-20 overflows 1/σs² in single
-    // precision, 1e20 underflows it.
+    // precision, 1e20 underflows it. The generator refuses all four (the factors underflow or
+    // round to 1); the optimiser driven directly still terminates and keeps each slice.
     let spaces = [SampleSpace::Vec { dims: 3 }, SampleSpace::Vec { dims: 2 }];
     for (sigma_value, space) in [1e-20, 1e-6, 1e6, 1e20]
         .into_iter()
         .flat_map(|s| spaces.iter().map(move |space| (s, space.clone())))
     {
+        let valid = VectorSpec::new(16, 12, 4, 2, space).with_swaps_per_pixel(3.0);
         let spec = VectorSpec {
             sigma_value,
-            ..VectorSpec::new(16, 12, 4, 2, space).with_swaps_per_pixel(3.0)
+            ..valid.clone()
         };
-        let (before, _) = generate_with_trace(&spec.clone().unoptimised()).unwrap();
-        let (after, trace) = generate_with_trace(&spec).unwrap();
-        assert_eq!(multisets(&before), multisets(&after));
-        // 3 swap passes, then the default assignment passes.
-        assert_eq!(trace.points[3].swaps_attempted, 3 * 16 * 12 * 4);
-        assert_eq!(
-            trace.points.len(),
-            4 + VectorSpec::DEFAULT_ASSIGNMENT_PASSES as usize
-        );
-        for pair in trace.points.windows(2) {
-            assert!(pair[1].energy <= pair[0].energy);
+        let refusal = generate_with_trace(&spec).unwrap_err().to_string();
+        assert!(refusal.contains("`sigma_value`"), "{refusal}");
+        let (before, _) = generate_with_trace(&valid.unoptimised()).unwrap();
+        let mut optimizer = SwapOptimizer::new(&spec, before.values().to_vec());
+        let mut energies = vec![optimizer.energy()];
+        for _ in 0..3 {
+            energies.push(optimizer.run_pass(1.0, &mut |_| {}).energy);
         }
+        assert_eq!(optimizer.swaps_attempted(), 3 * 16 * 12 * 4);
+        for _ in 0..VectorSpec::DEFAULT_ASSIGNMENT_PASSES {
+            energies.push(
+                optimizer
+                    .run_assignment_pass(ASSIGNMENT_SET, &mut |_| {})
+                    .energy,
+            );
+        }
+        for pair in energies.windows(2) {
+            assert!(pair[1] <= pair[0]);
+        }
+        let after = VectorVolume::new((16, 12, 4), &spec.space, optimizer.into_values());
+        assert_eq!(multisets(&before), multisets(&after));
     }
-    // Huge σi: the footprint covers whole (small) slices and many frames.
+    // Huge σi (the largest accepted, 1.7 slice lengths): the footprint covers whole (small)
+    // slices and many frames.
     let spec = VectorSpec {
-        sigma_image: 40.0,
+        sigma_image: 10.2,
         ..VectorSpec::new(6, 5, 3, 2, SampleSpace::UnitVec2).with_swaps_per_pixel(2.0)
     };
     let (volume, trace) = generate_with_trace(&spec).unwrap();
