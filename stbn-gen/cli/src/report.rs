@@ -485,7 +485,7 @@ fn figures(rows: &[Row]) -> Vec<Figure> {
                     // Up to the mask's depth: past it a pixel's sequence repeats its frames,
                     // and the curve would jump where it wraps.
                     let curve = estimator.curve(row.curves(integrand)).iter().enumerate();
-                    let depth = row.size.2 as usize;
+                    let depth = row.size.2;
                     curve
                         .take(depth)
                         .map(|(k, &e)| ((k + 1) as f64, e))
