@@ -222,7 +222,14 @@ impl MaskSpec {
             let Some(range) = self.sigma_range(z) else {
                 continue;
             };
-            let reason = if !crate::kernel::keeps_unit_offset(value, self.kernel_tolerance) {
+            let reason = if range.min > range.max && (value < range.min || value > range.max) {
+                format!(
+                    "`kernel_tolerance` {} keeps a pixel's neighbours only from σ {}, above the \
+                     largest σ this axis of {length} allows, so no σ works: lower \
+                     `kernel_tolerance`",
+                    self.kernel_tolerance, range.min
+                )
+            } else if !crate::kernel::keeps_unit_offset(value, self.kernel_tolerance) {
                 format!(
                     "below {} the kernel, truncated at `kernel_tolerance` {}, keeps no neighbour \
                      of a pixel, so every arrangement has the same energy",
@@ -434,6 +441,17 @@ mod tests {
             let max = MaskSpec::new(n, n, n, 0).sigma_range(false).unwrap().max;
             assert!(max <= 1.1 * f64::from(n), "{n}: {max}");
         }
+    }
+
+    #[test]
+    fn a_tolerance_that_leaves_no_sigma_says_so() {
+        let mut spec = MaskSpec::new(8, 8, 4, 0);
+        spec.kernel_tolerance = 0.999;
+        let error = spec.validate().unwrap_err().to_string();
+        assert!(
+            error.contains("so no σ works: lower `kernel_tolerance`"),
+            "{error}"
+        );
     }
 
     #[test]
