@@ -1080,89 +1080,92 @@ impl Source<'_> {
         let located = self.map.locate(offset);
         let entry = located.and_then(|l| self.map.masks.get(l.mask));
         let mut field_index = located.and_then(|l| l.field);
-        let (field, message) = match &error.code {
-            _ if let Some(unclosed) = unclosed => (
+        let (field, message) = if let Some(unclosed) = unclosed {
+            (
                 entry
                     .zip(field_index)
                     .map(|(entry, i)| entry.fields[i].name.clone()),
                 self.ends_early(unclosed),
-            ),
-            E::NoSuchStructField {
-                expected, found, ..
-            } => (
-                Some(found.clone()),
-                format!(
-                    "unknown field; expected one of {}{}",
-                    backticked(expected),
-                    did_you_mean(found, expected)
-                ),
-            ),
-            E::MissingStructField { field, .. } => (
-                Some((*field).to_owned()),
-                "missing; this field has no default".to_owned(),
-            ),
-            E::DuplicateStructField { field, .. } => {
-                (Some((*field).to_owned()), "given more than once".to_owned())
-            }
-            code => {
-                // ron reports a missing comma at the start of the next field: the field that
-                // lacks it is the previous one, and the comma belongs right after its value.
-                if let (E::ExpectedComma, Some(entry), Some(i)) = (code, entry, field_index)
-                    && i > 0
-                    && entry.fields[i].key.offset == offset
-                {
-                    field_index = Some(i - 1);
-                    let end = entry.fields[i - 1].value_end;
-                    (line, column) = (end.line, end.col);
-                }
-                let field = entry
-                    .zip(field_index)
-                    .map(|(entry, i)| entry.fields[i].name.clone());
-                let ron_message = lowercase_first(&shorten_quoted(&code.to_string()));
-                // ron reads `1.5` for an integer as `1` followed by a stray `.5`.
-                let fraction = match (code, entry, field_index) {
-                    (E::ExpectedComma, Some(entry), Some(i))
-                        if entry.fields[i].value.offset < offset
-                            && self.text[offset..].starts_with(['.', 'e', 'E'])
-                            && self.text[..offset].ends_with(|c: char| c.is_ascii_digit()) =>
-                    {
-                        let field = &entry.fields[i];
-                        self.text.get(field.value.offset..field.value_end.offset)
-                    }
-                    _ => None,
-                };
-                let integer_range = match code {
-                    E::IntegerOutOfBounds => field
-                        .as_deref()
-                        .and_then(|f| integer_range(f, self.written_variant(entry, field_index))),
-                    _ => None,
-                };
-                let message = if (line, column) != (start.line, start.col) {
-                    "expected `,` after this field's value".to_owned()
-                } else if let Some(value) = fraction {
-                    format!(
-                        "expected an integer (this field takes whole numbers), found {}",
-                        quote::backticked(value)
-                    )
-                } else if let Some(range) = integer_range {
-                    let (written, sign) = integer_at(self.text, offset);
-                    // Point at the sign ron steps over.
-                    column -= sign;
-                    format!("{range} (got {})", excerpt(written))
-                } else if let (false, Some(variants)) = (
-                    matches!(code, E::NoSuchEnumVariant { .. }),
-                    field.as_deref().and_then(enum_variants),
-                ) {
-                    format!("expected one of {variants} ({ron_message})")
-                } else if let E::NoSuchEnumVariant {
+            )
+        } else {
+            match &error.code {
+                E::NoSuchStructField {
                     expected, found, ..
-                } = code
-                {
-                    format!("{ron_message}{}", did_you_mean(found, expected))
-                } else {
-                    ron_message
-                };
-                (field, message)
+                } => (
+                    Some(found.clone()),
+                    format!(
+                        "unknown field; expected one of {}{}",
+                        backticked(expected),
+                        did_you_mean(found, expected)
+                    ),
+                ),
+                E::MissingStructField { field, .. } => (
+                    Some((*field).to_owned()),
+                    "missing; this field has no default".to_owned(),
+                ),
+                E::DuplicateStructField { field, .. } => {
+                    (Some((*field).to_owned()), "given more than once".to_owned())
+                }
+                code => {
+                    // ron reports a missing comma at the start of the next field: the field that
+                    // lacks it is the previous one, and the comma belongs right after its value.
+                    if let (E::ExpectedComma, Some(entry), Some(i)) = (code, entry, field_index)
+                        && i > 0
+                        && entry.fields[i].key.offset == offset
+                    {
+                        field_index = Some(i - 1);
+                        let end = entry.fields[i - 1].value_end;
+                        (line, column) = (end.line, end.col);
+                    }
+                    let field = entry
+                        .zip(field_index)
+                        .map(|(entry, i)| entry.fields[i].name.clone());
+                    let ron_message = lowercase_first(&shorten_quoted(&code.to_string()));
+                    // ron reads `1.5` for an integer as `1` followed by a stray `.5`.
+                    let fraction = match (code, entry, field_index) {
+                        (E::ExpectedComma, Some(entry), Some(i))
+                            if entry.fields[i].value.offset < offset
+                                && self.text[offset..].starts_with(['.', 'e', 'E'])
+                                && self.text[..offset].ends_with(|c: char| c.is_ascii_digit()) =>
+                        {
+                            let field = &entry.fields[i];
+                            self.text.get(field.value.offset..field.value_end.offset)
+                        }
+                        _ => None,
+                    };
+                    let integer_range = match code {
+                        E::IntegerOutOfBounds => field.as_deref().and_then(|f| {
+                            integer_range(f, self.written_variant(entry, field_index))
+                        }),
+                        _ => None,
+                    };
+                    let message = if (line, column) != (start.line, start.col) {
+                        "expected `,` after this field's value".to_owned()
+                    } else if let Some(value) = fraction {
+                        format!(
+                            "expected an integer (this field takes whole numbers), found {}",
+                            quote::backticked(value)
+                        )
+                    } else if let Some(range) = integer_range {
+                        let (written, sign) = integer_at(self.text, offset);
+                        // Point at the sign ron steps over.
+                        column -= sign;
+                        format!("{range} (got {})", excerpt(written))
+                    } else if let (false, Some(variants)) = (
+                        matches!(code, E::NoSuchEnumVariant { .. }),
+                        field.as_deref().and_then(enum_variants),
+                    ) {
+                        format!("expected one of {variants} ({ron_message})")
+                    } else if let E::NoSuchEnumVariant {
+                        expected, found, ..
+                    } = code
+                    {
+                        format!("{ron_message}{}", did_you_mean(found, expected))
+                    } else {
+                        ron_message
+                    };
+                    (field, message)
+                }
             }
         };
         ManifestError {
