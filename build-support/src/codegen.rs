@@ -5,8 +5,8 @@ use std::path::Path;
 
 use stbn_runtime::{Compression, Encoding, MaskHeader};
 
-use crate::manifest::number;
 use crate::{Error, MaskEntry, Method};
+use stbn_gen::compact_number as number;
 
 /// One mask to declare: its manifest entry and the blob file to embed.
 #[derive(Clone, Copy, Debug)]

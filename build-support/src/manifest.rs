@@ -52,6 +52,7 @@
 //! infinite, negative or all-zero luminance) while the manifest is parsed, which needs the
 //! crate's `images` feature.
 
+use stbn_gen::compact_number as number;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -1007,17 +1008,6 @@ fn sigma_field(field: &str, has_sigma_time: bool) -> &'static str {
         "sigma_z" if has_sigma_time => "sigma_time",
         "sigma_value" => "sigma_value",
         _ => "sigma",
-    }
-}
-
-/// `value` for a message: plain for everyday magnitudes (`-1`, `0.25`), in exponent notation
-/// for tiny and huge ones (`1e-200`, not two hundred digits).
-pub(crate) fn number(value: f64) -> String {
-    let magnitude = value.abs();
-    if value == 0.0 || !value.is_finite() || (1e-4..1e16).contains(&magnitude) {
-        value.to_string()
-    } else {
-        format!("{value:e}")
     }
 }
 

@@ -121,7 +121,7 @@ pub use filter_adapted::{
 pub use importance::{ImageError, ImagePdf, PixelProblem};
 pub use observe::{Observer, Progress};
 pub use space::SampleSpace;
-pub use spec::{EnergyTopology, MaskSpec, SigmaRange, SpecError};
+pub use spec::{EnergyTopology, MaskSpec, SigmaRange, SpecError, compact_number};
 pub use trace::{EnergyTrace, TracePoint};
 pub use vector::{InitialArrangement, VectorSpec, VectorSpecError, VectorVolume};
 pub use volume::Volume;

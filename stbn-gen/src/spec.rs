@@ -292,9 +292,10 @@ impl fmt::Display for SigmaRange {
     }
 }
 
-/// `value` for a message: plain for everyday magnitudes, in exponent notation for tiny and huge
-/// ones (`1e-200`, not two hundred digits).
-pub(crate) fn number(value: f64) -> String {
+/// `value` as stbn's messages write it: plain for everyday magnitudes (`-1`, `0.25`), in exponent
+/// notation for tiny and huge ones (`1e-200`, not two hundred digits). The manifest's messages and
+/// the generated statics' docs in `stbn-build-support` use it too.
+pub fn compact_number(value: f64) -> String {
     let magnitude = value.abs();
     if value == 0.0 || !value.is_finite() || (1e-4..1e16).contains(&magnitude) {
         value.to_string()
@@ -396,7 +397,7 @@ impl fmt::Display for SpecError {
             } => write!(
                 f,
                 "`{field}` is {}; for this mask it must be {range}: {reason}",
-                number(*value)
+                compact_number(*value)
             ),
             SpecError::InvalidDensity(value) => {
                 write!(f, "`density` is {value}; it must be in (0, 0.5]")

@@ -102,7 +102,7 @@ fn check_gaussian(sigma: f64, max: f64) -> Option<String> {
         format!(
             "Gaussian sigma is {}; it must be in [{MIN_GAUSSIAN_SIGMA:e}, {max}] (below, \
              1/(2σ²) overflows and the filter's weights are not a Gaussian's)",
-            crate::spec::number(sigma)
+            crate::spec::compact_number(sigma)
         )
     })
 }

@@ -292,7 +292,7 @@ impl FilterAdaptedSpec {
                      slice's {slice_length} pixels, or the default {default_sigma}): a wider \
                      Gaussian folds flat over the wrapped slice, and no arrangement of a frame \
                      filters better than another",
-                    crate::spec::number(sigma),
+                    crate::spec::compact_number(sigma),
                     filters::MIN_GAUSSIAN_SIGMA
                 ),
             });
