@@ -348,11 +348,8 @@ impl Cache {
     /// Why the directory cannot be created or written.
     pub(crate) fn prepare(&self) -> io::Result<()> {
         std::fs::create_dir_all(&self.dir)?;
-        tempfile::Builder::new()
-            .prefix(TEMP_PREFIX)
-            .suffix(TEMP_SUFFIX)
-            .rand_bytes(TEMP_RANDOM_CHARS)
-            .tempfile_in(&self.dir)?;
+        // Dropped at once: removed.
+        TempFile::create_in(&self.dir)?;
         let _ = self.remove_orphans(false);
         Ok(())
     }
@@ -602,22 +599,94 @@ fn verify(
 pub(crate) fn write_atomically(path: &Path, bytes: &[u8]) -> io::Result<()> {
     let dir = path.parent().unwrap_or(Path::new("."));
     std::fs::create_dir_all(dir)?;
-    let mut builder = tempfile::Builder::new();
-    builder
-        .prefix(TEMP_PREFIX)
-        .suffix(TEMP_SUFFIX)
-        .rand_bytes(TEMP_RANDOM_CHARS);
-    // Readable by everyone sharing the cache, like any other build output (umask applies);
-    // temporary files are otherwise private to their creator.
-    #[cfg(unix)]
-    builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o644));
-    let mut file = builder.tempfile_in(dir)?;
+    let mut temp = TempFile::create_in(dir)?;
     // Marks the file as live for `remove_orphans`, held until the rename (and the close after
     // it). A file system without locks leaves the grace period as the only protection.
-    let _ = file.as_file().try_lock();
-    file.write_all(bytes)?;
-    file.persist(path).map_err(|e| e.error)?;
-    Ok(())
+    let _ = temp.file.try_lock();
+    temp.file.write_all(bytes)?;
+    temp.persist(path)
+}
+
+/// A fresh `.tmp-XXXXXX.part` file ([`is_temp_name`]) in a directory, removed when dropped
+/// unless [`persist`](Self::persist)ed. Written with `std` alone, so that a game's build script
+/// compiles no temporary-file crate (`tempfile` and `rustix` took about 26 s of CPU of a clean
+/// build's 608 s).
+struct TempFile {
+    path: PathBuf,
+    file: File,
+    persisted: bool,
+}
+
+impl TempFile {
+    /// Creates the file exclusively (`create_new`: never an existing file, nor through a link),
+    /// readable by everyone sharing the cache like any other build output (umask applies).
+    fn create_in(dir: &Path) -> io::Result<TempFile> {
+        let mut options = std::fs::OpenOptions::new();
+        options.write(true).create_new(true);
+        #[cfg(unix)]
+        std::os::unix::fs::OpenOptionsExt::mode(&mut options, 0o644);
+        // A clash needs another live writer with the same six random characters; a few
+        // attempts make it vanishingly rare.
+        for _ in 0..16 {
+            let path = dir.join(format!(
+                "{TEMP_PREFIX}{}{TEMP_SUFFIX}",
+                random_alphanumerics(TEMP_RANDOM_CHARS)
+            ));
+            match options.open(&path) {
+                Ok(file) => {
+                    return Ok(TempFile {
+                        path,
+                        file,
+                        persisted: false,
+                    });
+                }
+                Err(e) if e.kind() == io::ErrorKind::AlreadyExists => continue,
+                Err(e) => return Err(e),
+            }
+        }
+        Err(io::Error::new(
+            io::ErrorKind::AlreadyExists,
+            format!("no free temporary file name in {}", dir.display()),
+        ))
+    }
+
+    /// Renames the file over `path`: readers see the old file or this one, never a partial one.
+    fn persist(mut self, path: &Path) -> io::Result<()> {
+        std::fs::rename(&self.path, path)?;
+        self.persisted = true;
+        Ok(())
+    }
+}
+
+impl Drop for TempFile {
+    fn drop(&mut self) {
+        if !self.persisted {
+            let _ = std::fs::remove_file(&self.path);
+        }
+    }
+}
+
+/// `n` random ASCII letters and digits for a temporary file name: from `std`'s randomly keyed
+/// hasher, the process id, a per-process counter and the time (names, not secrets).
+fn random_alphanumerics(n: usize) -> String {
+    use std::hash::{BuildHasher as _, Hasher as _};
+    use std::sync::atomic::{AtomicU64, Ordering};
+    static CALLS: AtomicU64 = AtomicU64::new(0);
+    const ALPHABET: &[u8; 62] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789";
+    let mut hasher = std::collections::hash_map::RandomState::new().build_hasher();
+    hasher.write_u64(CALLS.fetch_add(1, Ordering::Relaxed));
+    hasher.write_u32(std::process::id());
+    if let Ok(now) = SystemTime::now().duration_since(SystemTime::UNIX_EPOCH) {
+        hasher.write_u128(now.as_nanos());
+    }
+    let mut bits = hasher.finish();
+    (0..n)
+        .map(|_| {
+            let c = ALPHABET[(bits % 62) as usize];
+            bits /= 62;
+            char::from(c)
+        })
+        .collect()
 }
 
 /// The cache directory a build script uses: `$STBN_CACHE_DIR` if set and non-empty (a relative
@@ -666,6 +735,33 @@ pub fn target_dir(out_dir: &Path, cargo_target_dir: Option<&Path>) -> PathBuf {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn temporary_files_are_exclusive_named_for_orphan_removal_and_removed_unless_persisted() {
+        let dir = tempfile::tempdir().unwrap();
+        let dropped = TempFile::create_in(dir.path()).unwrap();
+        let dropped_path = dropped.path.clone();
+        let name = dropped_path
+            .file_name()
+            .unwrap()
+            .to_str()
+            .unwrap()
+            .to_owned();
+        assert!(is_temp_name(&name), "{name}");
+        let kept = TempFile::create_in(dir.path()).unwrap();
+        assert_ne!(
+            kept.path, dropped_path,
+            "two live writers never share a file"
+        );
+        drop(dropped);
+        assert!(!dropped_path.exists());
+        let target = dir.path().join("entry.stbn");
+        write_atomically(&target, b"bytes").unwrap();
+        assert_eq!(std::fs::read(&target).unwrap(), b"bytes");
+        drop(kept);
+        let left: Vec<_> = std::fs::read_dir(dir.path()).unwrap().flatten().collect();
+        assert_eq!(left.len(), 1, "only the persisted entry: {left:?}");
+    }
     use crate::encode::Layout;
     use stbn_gen::{BaselineKind, EnergyTopology, MaskSpec, SampleSpace, VectorSpec};
 
