@@ -560,7 +560,8 @@ fn huge_and_tiny_numbers_read_compactly() {
         (
             "spatial_filter: Gaussian(1e300)",
             "spatial_filter",
-            "Gaussian sigma is 1e300; it must be finite, > 0 and <= 4096",
+            "Gaussian sigma is 1e300; it must be in [1e-150, 4096] (below, 1/(2σ²) overflows and \
+             the filter's weights are not a Gaussian's)",
         ),
         (
             "temporal_filter: Exponential(1e-300)",

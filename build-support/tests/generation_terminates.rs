@@ -193,14 +193,24 @@ proptest! {
                 Err(error) => Err(error.to_string()),
                 Ok(manifest) => {
                     let entry = &manifest.masks()[0];
-                    let (_, blob) = entry
-                        .recipe()
-                        .make(entry.encoding, entry.compression)
-                        .expect("a validated entry generates");
-                    PackedStbn::from_bytes(&blob)
-                        .expect("the blob is valid")
-                        .decode()
-                        .expect("the blob decodes");
+                    match entry.recipe().make(entry.encoding, entry.compression) {
+                        // A σs too small for the values' spacing is refused after the first
+                        // pass, naming the field: its bound depends on the values, so the
+                        // manifest cannot check it.
+                        Err(stbn_gen::VectorSpecError::Spec(
+                            stbn_gen::SpecError::SigmaOutOfRange {
+                                field: "sigma_value",
+                                ..
+                            },
+                        )) => {}
+                        Err(error) => panic!("a validated entry generates: {error:?}"),
+                        Ok((_, blob)) => {
+                            PackedStbn::from_bytes(&blob)
+                                .expect("the blob is valid")
+                                .decode()
+                                .expect("the blob decodes");
+                        }
+                    }
                     Ok(())
                 }
             };
