@@ -7,10 +7,9 @@ use stbn_runtime::{Compression, Encoding, MaskHeader, Space, ValueMap, octahedra
 /// The miniz_oxide level used for [`Compression::Deflate`] (0–10; 9 is zlib's "best").
 pub const DEFLATE_LEVEL: u8 = 9;
 
-/// Version of the encoder's output, part of every cache key: 3 since a compressed payload that is
-/// not smaller than the stored one is stored instead; 2 since Unorm values store the level
-/// nearest to `(rank + ½) / pixels` (version 1 stored `rank · 2^bits / pixels`, half a rank low
-/// when a slice has fewer pixels than levels).
+/// Version of the encoder's output, part of every cache key: changed whenever the bytes the
+/// encoder writes for a volume change (the quantisation rules, the compression fallback, the
+/// hemisphere horizon rule).
 pub const ENCODER_VERSION: u32 = 3;
 
 /// Whether `blob` (from [`encode_volume`] or [`encode_vector`]) was asked for `requested`
@@ -170,32 +169,42 @@ impl Layout {
 /// `u` in `[0, 1]` as a Unorm element of `encoding` with midpoint decoding: `floor(u · 2^bits)`,
 /// clamped to the largest code; F32 stores `u`.
 fn push_unit(out: &mut Vec<u8>, u: f32, encoding: Encoding) {
+    match unit_element(u, encoding) {
+        UnitElement::Code(q) if encoding == Encoding::Unorm8 => out.push(q as u8),
+        UnitElement::Code(q) => out.extend_from_slice(&(q as u16).to_le_bytes()),
+        UnitElement::Float(u) => out.extend_from_slice(&u.to_le_bytes()),
+    }
+}
+
+/// What [`push_unit`] stores for `u`: a Unorm code, or the `f32` itself.
+enum UnitElement {
+    Code(u32),
+    Float(f32),
+}
+
+/// `u` clamped to `[0, 1]` (0 if not finite) and quantised as `encoding` stores it.
+fn unit_element(u: f32, encoding: Encoding) -> UnitElement {
     let u = if u.is_finite() {
         u.clamp(0.0, 1.0)
     } else {
         0.0
     };
+    let code =
+        |levels: f64| UnitElement::Code((f64::from(u) * levels).floor().min(levels - 1.0) as u32);
     match encoding {
-        Encoding::Unorm8 => out.push((f64::from(u) * 256.0).floor().min(255.0) as u8),
-        Encoding::Unorm16 => {
-            let q = (f64::from(u) * 65536.0).floor().min(65535.0) as u16;
-            out.extend_from_slice(&q.to_le_bytes());
-        }
-        Encoding::F32 => out.extend_from_slice(&u.to_le_bytes()),
+        Encoding::Unorm8 => code(256.0),
+        Encoding::Unorm16 => code(65536.0),
+        Encoding::F32 => UnitElement::Float(u),
     }
 }
 
 /// `u` as [`push_unit`] stores it, read back as the runtime reads it (bin midpoints for Unorm).
 fn stored_unit(u: f32, encoding: Encoding) -> f32 {
-    let u = if u.is_finite() {
-        u.clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    match encoding {
-        Encoding::Unorm8 => ((f64::from(u) * 256.0).floor().min(255.0) as f32 + 0.5) / 256.0,
-        Encoding::Unorm16 => ((f64::from(u) * 65536.0).floor().min(65535.0) as f32 + 0.5) / 65536.0,
-        Encoding::F32 => u,
+    match unit_element(u, encoding) {
+        UnitElement::Code(q) => {
+            (q as f32 + 0.5) / (1u32 << (8 * encoding.bytes_per_element())) as f32
+        }
+        UnitElement::Float(u) => u,
     }
 }
 

@@ -117,7 +117,14 @@ pub(crate) fn keeps_unit_offset(sigma: f64, tolerance: f64) -> bool {
 /// The smallest σ [`keeps_unit_offset`] accepts at `tolerance`, rounded up to four significant
 /// digits (so the figure a message shows is itself accepted): about `1/√(2 ln(1/tolerance))`,
 /// 0.3072 at the default 5·10⁻³.
+///
+/// # Panics
+/// If `tolerance` is not in `(0, 1)` (no σ qualifies; [`crate::MaskSpec::validate`] checks it first).
 pub(crate) fn smallest_sigma(tolerance: f64) -> f64 {
+    assert!(
+        tolerance > 0.0 && tolerance < 1.0,
+        "kernel tolerance {tolerance} is not in (0, 1)"
+    );
     let exact = 1.0 / cutoff(tolerance).sqrt();
     let mut shown = round_up_4(exact);
     while !keeps_unit_offset(shown, tolerance) {

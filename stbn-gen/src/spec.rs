@@ -153,7 +153,8 @@ impl MaskSpec {
 
     /// The σ `sigma_xy` (`z == false`) or `sigma_z` (`z == true`) must lie in, where it is used:
     /// `None` where it is not (an axis of one pixel, `sigma_z` of
-    /// [`EnergyTopology::Independent2D`]). Needs a valid `kernel_tolerance`.
+    /// [`EnergyTopology::Independent2D`]) and where `kernel_tolerance` is not in `(0, 1)` (no σ
+    /// qualifies; [`MaskSpec::validate`] refuses it).
     ///
     /// Inside the range the energy tells arrangements apart along the axis. Below `min` the
     /// truncated kernel keeps no neighbour at distance 1 (about `1/√(2 ln(1/kernel_tolerance))`,
@@ -162,6 +163,9 @@ impl MaskSpec {
     /// ([`MaskSpec::MAX_SIGMA_PER_LENGTH`]). Either way void-and-cluster falls back to its
     /// tie-break: white noise along the axis.
     pub fn sigma_range(&self, z: bool) -> Option<SigmaRange> {
+        if !(self.kernel_tolerance > 0.0 && self.kernel_tolerance < 1.0) {
+            return None;
+        }
         let length = if z {
             if self.topology == EnergyTopology::Independent2D {
                 return None;
@@ -237,9 +241,9 @@ impl MaskSpec {
                 )
             } else if value > range.max {
                 format!(
-                    "above {} (half the axis's {length} {}) the Gaussian wrapped over the axis \
-                     is within {:.1}% of flat, and farther out flat to the energy's resolution: \
-                     the energy no longer orders the mask along it",
+                    "above {} (half the axis's {length} {}, at least 1.9) the Gaussian wrapped \
+                     over the axis is within {:.1}% of flat, and farther out flat to the energy's \
+                     resolution: the energy no longer orders the mask along it",
                     range.max,
                     if z { "frames" } else { "pixels" },
                     200.0 * (-std::f64::consts::PI.powi(2) / 2.0).exp()

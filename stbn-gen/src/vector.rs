@@ -233,8 +233,8 @@ impl VectorSpec {
         }
     }
 
-    /// The σi `sigma_image` must lie in: `None` for a volume of one pixel (no pairs). Needs a
-    /// valid `kernel_tolerance`.
+    /// The σi `sigma_image` must lie in: `None` for a volume of one pixel (no pairs) and where
+    /// `kernel_tolerance` is not in `(0, 1)` ([`VectorSpec::validate`] refuses it).
     ///
     /// Below `min` the weight `exp(−1/σi²)` of the nearest neighbour falls under
     /// `kernel_tolerance` (about `1/√ln(1/kernel_tolerance)`, 0.4345 at the default 5·10⁻³; the
@@ -244,6 +244,9 @@ impl VectorSpec {
     /// slice.
     pub fn sigma_image_range(&self) -> Option<SigmaRange> {
         let tolerance = self.kernel_tolerance;
+        if !(tolerance > 0.0 && tolerance < 1.0) {
+            return None;
+        }
         let exact = 1.0 / (1.0 / tolerance).ln().sqrt();
         let mut min = round_up_4(exact);
         while !keeps_unit_offset(min, tolerance) {

@@ -375,8 +375,9 @@ fn vector_sigmas_are_refused_or_lower_the_energy() {
     }
 }
 
-/// The runs the issue was found on: Vec2 and the cosine hemisphere at 32×32×8 with σs 0.01 and
-/// 10⁴, and σi 0.2, used to return the start unchanged after the whole budget without a word.
+/// Vec2 and the cosine hemisphere at 32×32×8 with σs 0.01 and 10⁴, and σi 0.2: the optimiser
+/// would keep no swap and return its start after the whole budget; each is refused naming its
+/// field.
 #[test]
 fn vector_sigmas_that_freeze_the_optimiser_are_refused_with_the_field() {
     for space in [SampleSpace::Vec { dims: 2 }, SampleSpace::CosineHemisphere] {
@@ -442,8 +443,8 @@ fn filter_adapted_sigmas_are_refused_or_lower_the_energy() {
     }
 }
 
-/// σ far beyond the mask used to cost a footprint of the whole slice per pixel for white noise
-/// (52 s at 128×128×32); now it is refused before any work.
+/// σ far beyond the mask would cost a footprint of the whole slice per pixel for white noise; it
+/// is refused before any work.
 #[test]
 fn a_huge_sigma_is_refused_at_once() {
     let start = std::time::Instant::now();

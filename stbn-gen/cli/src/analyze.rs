@@ -184,7 +184,8 @@ fn check_slices(dir: &Path, index: usize) -> Result<()> {
             format!("slices 0–{} are", z - 1)
         };
         return Err(format!(
-            "{}: {missing} missing: the first slice of `{shown_name}` is {} (a mask's slices are              numbered from 0)",
+            "{}: {missing} missing: the first slice of `{shown_name}` is {} (a mask's slices \
+             are numbered from 0)",
             staging::shown(dir),
             staging::shown(&path)
         )
@@ -195,7 +196,9 @@ fn check_slices(dir: &Path, index: usize) -> Result<()> {
     let length = name.chars().count();
     if fixed + length > MAX_FILE_NAME {
         return Err(format!(
-            "{}: the slice name `{shown_name}` is {length} characters long; the report names              files after it (`dft/{index:02}_<name>_xy.png`), so at most {} fit the {MAX_FILE_NAME}-byte              limit on file names (rename the slices)",
+            "{}: the slice name `{shown_name}` is {length} characters long; the report names \
+             files after it (`dft/{index:02}_<name>_xy.png`), so at most {} fit the \
+             {MAX_FILE_NAME}-byte limit on file names (rename the slices)",
             staging::shown(dir),
             MAX_FILE_NAME - fixed
         )

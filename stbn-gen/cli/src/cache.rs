@@ -108,6 +108,7 @@ pub(crate) fn run(args: &Args) -> crate::Result<()> {
             )?;
             if let PruneRule::ToSize(limit) = rule
                 && kept_bytes > limit
+                && pruned.failures.is_empty()
             {
                 writeln!(
                     out,
