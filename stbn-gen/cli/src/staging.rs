@@ -341,6 +341,29 @@ fn abandon(out: &Path, state: &Path, root: &Path) -> Result<()> {
         };
         let aside = fs::read_to_string(&journal).map_err(|e| incomplete(&e))?;
         let (staged, replaced) = (root.join(STAGED), root.join(REPLACED));
+        // The killed run checked these against the list before switching; anything that has
+        // appeared in them since is someone else's and stops the switch.
+        let owned = read_list(state)?;
+        let mut conflicts = Vec::new();
+        for name in aside.lines().filter(|n| !n.is_empty() && !n.contains('/')) {
+            if fs::symlink_metadata(replaced.join(name)).is_err() {
+                find_conflicts(out, name, &owned, &mut conflicts);
+            }
+        }
+        if !conflicts.is_empty() {
+            let shown_paths: Vec<String> = conflicts
+                .iter()
+                .take(SHOWN_CONFLICTS)
+                .map(|c| shown(&out.join(c)))
+                .collect();
+            return Err(incomplete(&format!(
+                "{} appeared since and stbn-gen did not write {}; move {} away",
+                shown_paths.join(", "),
+                if conflicts.len() == 1 { "it" } else { "them" },
+                if conflicts.len() == 1 { "it" } else { "them" },
+            ))
+            .into());
+        }
         for name in aside.lines().filter(|n| !n.is_empty() && !n.contains('/')) {
             // Present in `out` but not aside yet: the previous output's, still to move.
             if fs::symlink_metadata(out.join(name)).is_ok()
@@ -824,6 +847,37 @@ mod tests {
         assert!(!root.exists());
         let list = read_list(&out.join(STATE_DIR)).unwrap();
         assert!(list.contains_key("b.stbn") && list.contains_key("other.txt"));
+    }
+
+    #[test]
+    fn a_killed_switch_is_not_completed_over_files_that_appeared_since() {
+        let out = tempfile::tempdir().unwrap();
+        let out = out.path();
+        run(out, &[("a/a_0.png", "old a"), ("report.md", "old")]).unwrap();
+        // A run killed after writing its journal, before moving anything.
+        let staging = Staging::new(out, &all, 100).unwrap();
+        let root = staging.root.clone();
+        for (path, text) in [("a/a_0.png", "new a"), ("report.md", "new")] {
+            let path = staging.dir().join(path);
+            fs::create_dir_all(path.parent().unwrap()).unwrap();
+            fs::write(path, text).unwrap();
+        }
+        fs::create_dir(root.join(REPLACED)).unwrap();
+        fs::write(root.join(SWITCH), "a\nreport.md\n").unwrap();
+        let mut staging = staging;
+        staging.keep = true;
+        drop(staging);
+        // Someone's file, put into the old mask folder after the kill.
+        fs::write(out.join("a/notes.txt"), "mine").unwrap();
+
+        let error = run(out, &[]).unwrap_err().to_string();
+        assert!(
+            error.contains("notes.txt") && error.contains("move it away"),
+            "{error}"
+        );
+        assert_eq!(fs::read_to_string(out.join("a/notes.txt")).unwrap(), "mine");
+        assert_eq!(fs::read_to_string(out.join("a/a_0.png")).unwrap(), "old a");
+        assert_eq!(fs::read_to_string(out.join("report.md")).unwrap(), "old");
     }
 
     #[test]
