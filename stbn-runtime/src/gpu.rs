@@ -31,9 +31,10 @@
 //! `stbn_sample_2d_array(..)` then return exactly what the [`OffsetStbn`] view the uniform
 //! was made from returns on the CPU (channel 0 in `.x`, channel `c` in component `c`), for
 //! every `i32` x, y and `u32` frame. One uniform per view: e.g. `mask` and
-//! `mask.dimension(1)` for two sample dimensions. `stbn_offset(mask, xy, frame)` adds a
-//! further offset in the shader, like [`OffsetStbn::offset`]. See the comments in
-//! `stbn.wgsl`.
+//! `mask.dimension(1)` for two sample dimensions, `mask.progressive()` for frames past the
+//! depth ([`Stbn::progressive`]). `stbn_offset(mask, xy, frame)` adds a further offset in the
+//! shader, like [`OffsetStbn::offset`], and `stbn_progressive(mask)` makes a uniform
+//! progressive, like [`OffsetStbn::progressive`]. See the comments in `stbn.wgsl`.
 //!
 //! # Example
 //! ```no_run
@@ -154,7 +155,7 @@ pub fn texture_format(
 /// Layout of [`to_bytes`](Self::to_bytes) (little-endian `u32`s, as the WGSL struct):
 /// `size: vec3<u32>` (width, height, depth in voxels) at byte 0, `decode: u32` at 12,
 /// `offset: vec3<u32>` (x in `[0, width)`, y in `[0, height)`, frame in `[0, depth)`) at 16,
-/// and 4 bytes of zero padding at 28.
+/// and `progressive: u32` (1 for a [progressive](OffsetStbn::progressive) view, else 0) at 28.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[must_use]
 pub struct MaskUniform {
@@ -164,6 +165,8 @@ pub struct MaskUniform {
     decode: u32,
     /// The view's offset, each component wrapped into `[0, size)` of its axis.
     offset: [u32; 3],
+    /// 1 when the view is progressive, else 0.
+    progressive: u32,
 }
 
 /// The texel already holds the value (32-bit float formats).
@@ -206,6 +209,7 @@ impl MaskUniform {
             size,
             decode,
             offset: [offset.x as u32, offset.y as u32, offset.frame],
+            progressive: u32::from(view.is_progressive()),
         }
     }
 
@@ -214,7 +218,12 @@ impl MaskUniform {
     #[must_use]
     pub fn to_bytes(&self) -> [u8; 32] {
         let mut out = [0u8; 32];
-        let words = self.size.iter().chain([&self.decode]).chain(&self.offset);
+        let words = self
+            .size
+            .iter()
+            .chain([&self.decode])
+            .chain(&self.offset)
+            .chain([&self.progressive]);
         for (chunk, word) in out.chunks_exact_mut(4).zip(words) {
             chunk.copy_from_slice(&word.to_le_bytes());
         }

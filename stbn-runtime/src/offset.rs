@@ -1,4 +1,5 @@
-//! [`SampleOffset`] and [`OffsetStbn`]: sampling a mask at a shifted position.
+//! [`SampleOffset`] and [`OffsetStbn`]: sampling a mask at a shifted position, and
+//! progressively past its depth.
 
 use crate::Stbn;
 
@@ -54,6 +55,8 @@ pub struct OffsetStbn<'m> {
     pub(crate) mask: &'m Stbn<'m>,
     /// As given: each component is wrapped when sampling.
     pub(crate) offset: SampleOffset,
+    /// Frames past the depth read the mask at the epoch's offset ([`Stbn::progressive`]).
+    pub(crate) progressive: bool,
 }
 
 impl<'m, 'a: 'm> From<&'m Stbn<'a>> for OffsetStbn<'m> {
@@ -67,7 +70,41 @@ impl Stbn<'_> {
     /// The mask seen through `offset`: `mask.offset(o).sample(x, y, frame)` is channel 0
     /// at `(x + o.x, y + o.y, frame + o.frame)`, wrapped toroidally.
     pub const fn offset(&self, offset: SampleOffset) -> OffsetStbn<'_> {
-        OffsetStbn { mask: self, offset }
+        OffsetStbn {
+            mask: self,
+            offset,
+            progressive: false,
+        }
+    }
+
+    /// The mask read progressively: frames `0..depth` return exactly what the mask's own
+    /// methods return, and every later pass through the depth (epoch `e = frame / depth`)
+    /// reads the mask shifted toroidally by the `e`-th point of a 2D R2 (Kronecker)
+    /// sequence, so a pixel keeps meeting new values and its running mean keeps converging,
+    /// with an error that stays blue in screen space, where [`sample`](Self::sample) repeats
+    /// the same `depth` values forever.
+    ///
+    /// The epoch offset is `(floor(fract(e / g²) · width), floor(fract(e / g) · height))`, `g`
+    /// the plastic number, computed in 0.32 fixed point (`e · step` wrapping in `u32`, then the
+    /// high word of a 32 × 32-bit product), so it is the same bits in the WGSL snippet; the axes
+    /// are swapped against [`dimension`](Self::dimension)'s offsets, so that epoch `e` of one
+    /// dimension is not another dimension's first epoch. Every mask kind (scalar, vector,
+    /// importance-sampled) keeps its distribution: only the position moves.
+    ///
+    /// What it buys, measured per pixel and for the error image against wrapping and white
+    /// noise: BENCHMARKS.md, "Past the depth"; `stbn-gen generate` reports it per mask.
+    ///
+    /// ```
+    /// # use stbn_runtime::{Stbn, include_stbn};
+    /// static MASK: Stbn<'static> = include_stbn!("../tests/data/scalar_16.stbn");
+    /// let view = MASK.progressive();
+    /// // The first `depth` frames are the mask itself ...
+    /// assert_eq!(view.sample(3, 4, 5), MASK.sample(3, 4, 5));
+    /// // ... and frame 8 + 5 (epoch 1) no longer repeats frame 5.
+    /// assert_ne!(view.sample_offset_at(8 + 5), view.sample_offset_at(5));
+    /// ```
+    pub const fn progressive(&self) -> OffsetStbn<'_> {
+        self.offset(SampleOffset::ZERO).progressive()
     }
 
     /// The mask seen through the offset of sample dimension `dimension`, so that one mask
@@ -90,9 +127,26 @@ impl<'m> OffsetStbn<'m> {
     /// This view shifted further by `offset`: the offsets add, exactly.
     pub fn offset(self, offset: SampleOffset) -> Self {
         Self {
-            mask: self.mask,
             offset: self.mask.add_offsets(self.offset, offset),
+            ..self
         }
+    }
+
+    /// This view read progressively past the mask's depth (see [`Stbn::progressive`]): frames
+    /// `0..depth` are unchanged; epoch `e = frame / depth` (of the frame passed to the
+    /// sampling methods, before this view's start-frame offset) adds the epoch's R2 offset to
+    /// this view's offset.
+    pub const fn progressive(self) -> Self {
+        Self {
+            progressive: true,
+            ..self
+        }
+    }
+
+    /// Whether this view is progressive ([`progressive`](Self::progressive)).
+    #[must_use]
+    pub const fn is_progressive(&self) -> bool {
+        self.progressive
     }
 
     /// This view shifted further by the offset of sample dimension `dimension` (see
@@ -101,19 +155,40 @@ impl<'m> OffsetStbn<'m> {
         self.offset(self.mask.dimension_offset(dimension))
     }
 
-    /// The offset this view adds, each component wrapped into its axis: x in
-    /// `[0, width)`, y in `[0, height)`, frame in `[0, depth)`. Views with equal
-    /// `sample_offset` over the same mask sample the same values.
+    /// The offset this view adds at frames `0..depth`, each component wrapped into its axis:
+    /// x in `[0, width)`, y in `[0, height)`, frame in `[0, depth)`. Views with equal
+    /// `sample_offset` and [`is_progressive`](Self::is_progressive) over the same mask sample
+    /// the same values.
     #[must_use]
     pub fn sample_offset(&self) -> SampleOffset {
         self.mask.add_offsets(self.offset, SampleOffset::ZERO)
+    }
+
+    /// The offset this view adds at `frame`, wrapped like [`sample_offset`](Self::sample_offset):
+    /// every method samples the mask itself at `(x, y, frame)` plus this offset. It is
+    /// `sample_offset()` for every frame of a view that is not progressive, and for frames
+    /// `0..depth` of one that is.
+    #[must_use]
+    pub fn sample_offset_at(&self, frame: u32) -> SampleOffset {
+        self.mask
+            .add_offsets(self.offset_at(frame), SampleOffset::ZERO)
+    }
+
+    /// The offset to sample `frame` at, not necessarily wrapped.
+    #[inline(always)]
+    pub(crate) fn offset_at(&self, frame: u32) -> SampleOffset {
+        if self.progressive {
+            self.mask.progressive_offset(self.offset, frame)
+        } else {
+            self.offset
+        }
     }
 
     /// [`Stbn::sample`] at the offset position: channel 0, the stored unit value.
     #[must_use]
     #[inline]
     pub fn sample(&self, x: i32, y: i32, frame: u32) -> f32 {
-        self.mask.sample_at(x, y, frame, self.offset, 0)
+        self.mask.sample_at(x, y, frame, self.offset_at(frame), 0)
     }
 
     /// [`Stbn::sample_channel`] at the offset position: channel `channel`
@@ -125,19 +200,22 @@ impl<'m> OffsetStbn<'m> {
     #[inline]
     #[track_caller]
     pub fn sample_channel(&self, x: i32, y: i32, frame: u32, channel: u32) -> f32 {
-        self.mask.channel_at(x, y, frame, self.offset, channel)
+        self.mask
+            .channel_at(x, y, frame, self.offset_at(frame), channel)
     }
 
     /// Fills `out[i]` with `sample(x0 + i, y, frame)` for every `i`, like
     /// [`Stbn::fill_row`].
     pub fn fill_row(&self, x0: i32, y: i32, frame: u32, out: &mut [f32]) {
-        self.mask.fill_row_at(x0, y, frame, self.offset, out);
+        self.mask
+            .fill_row_at(x0, y, frame, self.offset_at(frame), out);
     }
 
     /// Fills `out` in row-major order with `out[y * width + x] = sample(x, y, frame)`,
     /// like [`Stbn::fill_frame`]: writes `min(out.len(), width * height)` values and
     /// returns that count.
     pub fn fill_frame(&self, frame: u32, out: &mut [f32]) -> usize {
-        self.mask.fill_frame_at(frame, self.sample_offset(), out)
+        self.mask
+            .fill_frame_at(frame, self.sample_offset_at(frame), out)
     }
 }

@@ -11,6 +11,12 @@ const R2_A1: u64 = 0xC13F_A9A9_02A6_328F;
 /// 2^64 / g² rounded to nearest: the second R2 constant `a2 = 1/g²` in 0.64 fixed point.
 const R2_A2: u64 = 0x91E1_0DA5_C79E_7B1D;
 
+/// 2^32 / g² rounded to nearest: `1/g²` in 0.32 fixed point, the x step of the epoch
+/// offsets of a progressive view ([`Stbn::epoch_offset`]).
+pub(crate) const EPOCH_STEP_X: u32 = 0x91E1_0DA6;
+/// 2^32 / g rounded to nearest: `1/g` in 0.32 fixed point, the y step of the epoch offsets.
+pub(crate) const EPOCH_STEP_Y: u32 = 0xC13F_A9A9;
+
 /// One axis of the torus: its length and, when the length is a power of two,
 /// the mask that replaces the modulo.
 #[derive(Clone, Copy)]
@@ -21,6 +27,8 @@ struct Axis {
     /// `len - 2^32 mod len`, the residue of `-2^32`, when `len` is not a power of two (then
     /// in `[1, len)`); unused otherwise.
     minus_2_32: u32,
+    /// `log2(len)` when `len` is a power of two; unused otherwise.
+    shift: u32,
     pow2: bool,
 }
 
@@ -35,8 +43,37 @@ impl Axis {
             } else {
                 len - ((1u64 << 32) % len as u64) as u32
             },
+            shift: len.trailing_zeros(),
             pow2,
         }
+    }
+
+    /// `floor(v / len)`: a shift when `len` is a power of two.
+    #[inline(always)]
+    fn quotient(self, v: u32) -> u32 {
+        if self.pow2 {
+            v >> self.shift
+        } else {
+            v / self.len
+        }
+    }
+
+    /// A value congruent to `a + b` modulo `len`: their wrapping sum when `len` is a power of
+    /// two (which divides 2^32), their exact wrapped sum otherwise.
+    #[inline(always)]
+    fn add(self, a: i32, b: i32) -> i32 {
+        if self.pow2 {
+            a.wrapping_add(b)
+        } else {
+            // Below len <= 2^31, so it fits in i32.
+            self.wrap_signed(a, b) as i32
+        }
+    }
+
+    /// `floor(frac * len / 2^32)` for a 0.32 fixed-point fraction `frac`: in `[0, len)`.
+    #[inline(always)]
+    const fn scale32(self, frac: u32) -> u32 {
+        ((frac as u64 * self.len as u64) >> 32) as u32
     }
 
     /// A non-negative number congruent to `v` modulo `len` (not a power of two), below 2^33:
@@ -313,6 +350,36 @@ impl<'a> Stbn<'a> {
         }
     }
 
+    /// The offset a progressive view adds in `epoch` (frames `epoch * depth ..`): the
+    /// `epoch`-th point of the R2 sequence with its axes swapped, `(fract(e / g²), fract(e / g))`
+    /// in 0.32 fixed point (`e · step` wrapping in `u32`), scaled to the width and height with
+    /// the high word of a 32 × 32-bit product: x in `[0, width)`, y in `[0, height)`, frame 0.
+    /// Epoch 0 is the zero offset. The axes are swapped against [`dimension_offset`]
+    /// (`(fract(i / g), fract(i / g²))`) so that epoch `e` of dimension `i` is not dimension
+    /// `i + e` of epoch 0. Integer arithmetic only, so the WGSL snippet computes the same bits.
+    #[inline(always)]
+    pub(crate) fn epoch_offset(&self, epoch: u32) -> SampleOffset {
+        SampleOffset {
+            // `scale32` returns < len <= 2^31, so each fits in i32.
+            x: self.x.scale32(epoch.wrapping_mul(EPOCH_STEP_X)) as i32,
+            y: self.y.scale32(epoch.wrapping_mul(EPOCH_STEP_Y)) as i32,
+            frame: 0,
+        }
+    }
+
+    /// The offset a progressive view with offset `o` applies at `frame`: `o` plus the
+    /// [`epoch_offset`](Self::epoch_offset) of epoch `frame / depth`, each component congruent
+    /// to the exact sum modulo its axis (not necessarily wrapped).
+    #[inline(always)]
+    pub(crate) fn progressive_offset(&self, o: SampleOffset, frame: u32) -> SampleOffset {
+        let epoch = self.epoch_offset(self.z.quotient(frame));
+        SampleOffset {
+            x: self.x.add(o.x, epoch.x),
+            y: self.y.add(o.y, epoch.y),
+            frame: o.frame,
+        }
+    }
+
     /// `a + b` with each component reduced modulo its axis, exactly (as if summed in
     /// unbounded integers): x in `[0, width)`, y in `[0, height)`, frame in `[0, depth)`.
     pub(crate) fn add_offsets(&self, a: SampleOffset, b: SampleOffset) -> SampleOffset {
@@ -586,6 +653,33 @@ mod tests {
         let scale = 18_446_744_073_709_551_616.0_f64; // 2^64
         assert!((R2_A1 as f64 / scale - 1.0 / g).abs() < 1e-15);
         assert!((R2_A2 as f64 / scale - 1.0 / (g * g)).abs() < 1e-15);
+    }
+
+    #[test]
+    fn epoch_steps_match_the_plastic_number() {
+        let g = 1.324_717_957_244_746_f64;
+        let scale = 4_294_967_296.0_f64; // 2^32
+        assert!((f64::from(EPOCH_STEP_X) / scale - 1.0 / (g * g)).abs() <= 0.5 / scale);
+        assert!((f64::from(EPOCH_STEP_Y) / scale - 1.0 / g).abs() <= 0.5 / scale);
+    }
+
+    #[test]
+    fn axis_quotient_add_and_scale32_are_exact() {
+        for len in [1, 3, 10, 64, 96, 1 << 31, (1 << 31) - 1] {
+            let axis = Axis::new(len);
+            for v in [0, 1, 63, 64, 65, 1000, u32::MAX - 1, u32::MAX] {
+                assert_eq!(axis.quotient(v), v / len);
+            }
+            for a in [i32::MIN, -65, -1, 0, 1, 63, i32::MAX] {
+                for b in [i32::MIN, -7, 0, 5, i32::MAX] {
+                    let exact = (i64::from(a) + i64::from(b)).rem_euclid(i64::from(len));
+                    assert_eq!(i64::from(axis.add(a, b)).rem_euclid(i64::from(len)), exact);
+                }
+            }
+            assert_eq!(axis.scale32(0), 0);
+            assert_eq!(axis.scale32(u32::MAX), len - 1);
+            assert_eq!(axis.scale32(1 << 31), len / 2);
+        }
     }
 
     #[test]

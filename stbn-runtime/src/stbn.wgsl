@@ -8,8 +8,9 @@
 // Coordinates: x, y are any i32 and frame any u32 (voxels / frames); the lookup is
 // toroidal on every axis, negative values and i32::MIN / u32::MAX included.
 // stbn_sample_3d(tex, m, x, y, frame) == view.sample_channel(x, y, frame, c) in component c
-// bit for bit, where m is the MaskUniform of view (an OffsetStbn, or the Stbn itself for
-// offset zero); components at or beyond the mask's channel count carry no meaning.
+// bit for bit, where m is the MaskUniform of view (an OffsetStbn, progressive or not, or the
+// Stbn itself for offset zero); components at or beyond the mask's channel count carry no
+// meaning.
 
 // The 32-byte uniform (MaskUniform on the CPU).
 struct StbnMask {
@@ -19,7 +20,13 @@ struct StbnMask {
     decode: u32,
     // The view's offset (x, y, start frame), each component in [0, size).
     offset: vec3<u32>,
+    // 1: frames past the depth read the mask at their epoch's offset (OffsetStbn::progressive).
+    progressive: u32,
 }
+
+// 1/g² and 1/g in 0.32 fixed point (g the plastic number): the steps of the epoch offsets.
+const STBN_EPOCH_STEP_X: u32 = 0x91E10DA6u;
+const STBN_EPOCH_STEP_Y: u32 = 0xC13FA9A9u;
 
 // Euclidean v mod n in [0, n) for every i32 v and 1 <= n <= 2^31. WGSL's % truncates
 // toward zero, so negative v is handled through its magnitude.
@@ -46,15 +53,43 @@ fn stbn_offset(m: StbnMask, xy: vec2<i32>, frame: u32) -> StbnMask {
     return out;
 }
 
-// The texel (x, y, frame) + m.offset, wrapped into [0, size).
+// m made progressive: the CPU's OffsetStbn::progressive.
+fn stbn_progressive(m: StbnMask) -> StbnMask {
+    var out = m;
+    out.progressive = 1u;
+    return out;
+}
+
+// floor(a * b / 2^32): the high word of the 64-bit product, from 16-bit halves (exact).
+fn stbn_mul_hi(a: u32, b: u32) -> u32 {
+    let a0 = a & 0xFFFFu;
+    let a1 = a >> 16u;
+    let b0 = b & 0xFFFFu;
+    let b1 = b >> 16u;
+    let low = a0 * b0;
+    let mid0 = a1 * b0;
+    let mid1 = a0 * b1;
+    // Each term is below 2^16, so the sum cannot wrap.
+    let carry = ((low >> 16u) + (mid0 & 0xFFFFu) + (mid1 & 0xFFFFu)) >> 16u;
+    return a1 * b1 + (mid0 >> 16u) + (mid1 >> 16u) + carry;
+}
+
+// The texel (x, y, frame) + m.offset, wrapped into [0, size); for a progressive m, plus the
+// offset of epoch frame / depth: (floor(fract(e / g²) * width), floor(fract(e / g) * height)).
 fn stbn_texel(m: StbnMask, x: i32, y: i32, frame: u32) -> vec3<u32> {
     let n = m.size;
     // Each term is below n <= 2^31, so the sums cannot wrap.
-    return vec3<u32>(
+    var t = vec3<u32>(
         (stbn_wrap(x, n.x) + m.offset.x) % n.x,
         (stbn_wrap(y, n.y) + m.offset.y) % n.y,
         (frame % n.z + m.offset.z) % n.z,
     );
+    if m.progressive != 0u {
+        let epoch = frame / n.z;
+        t.x = (t.x + stbn_mul_hi(epoch * STBN_EPOCH_STEP_X, n.x)) % n.x;
+        t.y = (t.y + stbn_mul_hi(epoch * STBN_EPOCH_STEP_Y, n.y)) % n.y;
+    }
+    return t;
 }
 
 // A textureLoad result to the CPU value: unorm texels come back as q / (2^bits - 1);

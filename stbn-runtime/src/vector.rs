@@ -797,28 +797,28 @@ impl OffsetStbn<'_> {
     #[must_use]
     #[inline]
     pub fn sample_vector(&self, x: i32, y: i32, frame: u32) -> VectorSample {
-        self.mask.vector_at(x, y, frame, self.offset)
+        self.mask.vector_at(x, y, frame, self.offset_at(frame))
     }
 
     /// [`Stbn::sample_vec2`] at the offset position: the first two components.
     #[must_use]
     #[inline]
     pub fn sample_vec2(&self, x: i32, y: i32, frame: u32) -> Vec2 {
-        self.mask.vector_at(x, y, frame, self.offset)
+        self.mask.vector_at(x, y, frame, self.offset_at(frame))
     }
 
     /// [`Stbn::sample_vec3`] at the offset position: the first three components.
     #[must_use]
     #[inline]
     pub fn sample_vec3(&self, x: i32, y: i32, frame: u32) -> Vec3 {
-        self.mask.vector_at(x, y, frame, self.offset)
+        self.mask.vector_at(x, y, frame, self.offset_at(frame))
     }
 
     /// [`Stbn::sample_vec4`] at the offset position: all four components.
     #[must_use]
     #[inline]
     pub fn sample_vec4(&self, x: i32, y: i32, frame: u32) -> Vec4 {
-        self.mask.vector_at(x, y, frame, self.offset)
+        self.mask.vector_at(x, y, frame, self.offset_at(frame))
     }
 
     /// [`Stbn::sample_pdf`] at the offset position (see [`VectorSample::pdf`]).
@@ -831,7 +831,8 @@ impl OffsetStbn<'_> {
     /// [`Stbn::fill_vector_row`] at the offset position: `out[i]` is the vector at
     /// `(x0 + i, y, frame)` of this view.
     pub fn fill_vector_row<V: VectorOutput>(&self, x0: i32, y: i32, frame: u32, out: &mut [V]) {
-        self.mask.fill_vector_row_at(x0, y, frame, self.offset, out);
+        self.mask
+            .fill_vector_row_at(x0, y, frame, self.offset_at(frame), out);
     }
 
     /// [`Stbn::fill_vector_frame`] at the offset position: `out[y * width + x]` is the vector at
@@ -839,7 +840,7 @@ impl OffsetStbn<'_> {
     /// that count.
     pub fn fill_vector_frame<V: VectorOutput>(&self, frame: u32, out: &mut [V]) -> usize {
         self.mask
-            .fill_vector_frame_at(frame, self.sample_offset(), out)
+            .fill_vector_frame_at(frame, self.sample_offset_at(frame), out)
     }
 }
 

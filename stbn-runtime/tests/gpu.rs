@@ -255,25 +255,21 @@ fn queries(mask: &Stbn<'_>, seed: u64) -> Vec<Query> {
 
 /// The CPU value of channel `c` for `q` through `view` (the view the uniform was made
 /// from): the view shifted by `q.offset` and `q.dim` for channel 0, `sample_channel` of the
-/// mask at the coordinate wrapped by hand otherwise.
+/// mask at the coordinate wrapped by hand from that view's offset at the frame otherwise.
 fn cpu_value(mask: &Stbn<'_>, view: OffsetStbn<'_>, q: &Query, c: u32) -> f32 {
+    let shifted = view.offset(q.offset).offset(q.dim);
     if c == 0 {
-        return view
-            .offset(q.offset)
-            .offset(q.dim)
-            .sample(q.x, q.y, q.frame);
+        return shifted.sample(q.x, q.y, q.frame);
     }
     let (w, h, d) = (
         i64::from(mask.width()),
         i64::from(mask.height()),
         i64::from(mask.depth()),
     );
-    let base = view.sample_offset();
-    let x = (i64::from(q.x) + i64::from(base.x) + i64::from(q.offset.x) + i64::from(q.dim.x))
-        .rem_euclid(w);
-    let y = (i64::from(q.y) + i64::from(base.y) + i64::from(q.offset.y) + i64::from(q.dim.y))
-        .rem_euclid(h);
-    let z = (i64::from(q.frame) + i64::from(base.frame) + i64::from(q.offset.frame)).rem_euclid(d);
+    let o = shifted.sample_offset_at(q.frame);
+    let x = (i64::from(q.x) + i64::from(o.x)).rem_euclid(w);
+    let y = (i64::from(q.y) + i64::from(o.y)).rem_euclid(h);
+    let z = (i64::from(q.frame) + i64::from(o.frame)).rem_euclid(d);
     mask.sample_channel(x as i32, y as i32, z as u32, c)
 }
 
@@ -487,7 +483,7 @@ fn gpu_values(
 /// Uploads masks of every encoding, channel count and kind (power-of-two and other
 /// sizes), checks the texels byte for byte and the WGSL sampler against the CPU bit for
 /// bit, for the given `encodings`, with the uniform made from the mask itself and from an
-/// offset view. Unorm16 uses 16-bit norm formats where the device has
+/// offset view, each also progressive. Unorm16 uses 16-bit norm formats where the device has
 /// them, the f32 fallback otherwise.
 fn check_backend(g: &Gpu, encodings: &[Encoding]) {
     let norm16 = g
@@ -519,7 +515,13 @@ fn check_backend(g: &Gpu, encodings: &[Encoding]) {
                         g.name
                     );
                     let shifted = mask.offset(BASE_OFFSET).dimension(5);
-                    for view in [OffsetStbn::from(&mask), shifted] {
+                    let views = [
+                        OffsetStbn::from(&mask),
+                        shifted,
+                        mask.progressive(),
+                        shifted.progressive(),
+                    ];
+                    for view in views {
                         let uniform = MaskUniform::new(view, &texture);
                         let got = gpu_values(g, s, &texture, uniform, &qs);
                         for (q, v) in qs.iter().zip(&got) {
@@ -639,7 +641,7 @@ fn mask_uniform_layout_matches_the_wgsl_struct() {
     });
     let b = MaskUniform::new(view, &texture).to_bytes();
     assert_eq!(b.len() as u64, MaskUniform::SIZE);
-    // size (7, 5, 3), decode 2 (unorm16), offset (-1 mod 7, 7 mod 5, 4 mod 3), padding.
+    // size (7, 5, 3), decode 2 (unorm16), offset (-1 mod 7, 7 mod 5, 4 mod 3), not progressive.
     assert_eq!(
         b,
         [
@@ -659,10 +661,62 @@ fn mask_uniform_layout_matches_the_wgsl_struct() {
             .copied()
             .collect::<Vec<u8>>()
     );
+    // A progressive view sets the last word.
+    let b = MaskUniform::new(view.progressive(), &texture).to_bytes();
+    assert_eq!(b[28..], [1, 0, 0, 0]);
     let f32_mask = mask_blob(7, 5, 3, 1, Encoding::F32, 3);
     let f32_mask = Stbn::from_bytes(&f32_mask).expect("valid test mask");
     let b = MaskUniform::new(&f32_mask, &upload(&g, &f32_mask, Kind::D3)).to_bytes();
     assert_eq!(b[12..16], [0, 0, 0, 0]);
+}
+
+/// `stbn_mul_hi`, which the progressive epoch offsets use, is the high word of the exact
+/// 64-bit product for every pair of `u32`s, extremes included.
+#[test]
+fn wgsl_mul_hi_is_the_high_word_of_the_product() {
+    let g = gpu(wgpu::Backends::VULKAN, Norm16::Require);
+    let bytes = mask_blob(4, 4, 2, 1, Encoding::Unorm8, 9);
+    let mask = Stbn::from_bytes(&bytes).expect("valid test mask");
+    let texture = upload(&g, &mask, Kind::D3);
+    // Both halves of the result as exact floats.
+    let s = sampler_with(
+        &g,
+        Kind::D3,
+        "vec4<f32>(f32(stbn_mul_hi(bitcast<u32>(q.x), q.frame) & 0xFFFFu), \
+         f32(stbn_mul_hi(bitcast<u32>(q.x), q.frame) >> 16u), 0.0, 0.0)",
+    );
+    let special = [
+        0,
+        1,
+        2,
+        0xFFFF,
+        0x1_0000,
+        0x8000_0000,
+        u32::MAX - 1,
+        u32::MAX,
+    ];
+    let mut rng = Rng(17);
+    let mut pairs: Vec<(u32, u32)> = special
+        .iter()
+        .flat_map(|&a| special.iter().map(move |&b| (a, b)))
+        .collect();
+    pairs.extend((0..4096).map(|_| (rng.next_u32(), rng.next_u32())));
+    let qs: Vec<Query> = pairs
+        .iter()
+        .map(|&(a, b)| Query {
+            x: a as i32,
+            y: 0,
+            frame: b,
+            offset: SampleOffset::ZERO,
+            dim: SampleOffset::ZERO,
+        })
+        .collect();
+    let got = gpu_values(&g, &s, &texture, MaskUniform::new(&mask, &texture), &qs);
+    for (&(a, b), v) in pairs.iter().zip(&got) {
+        let expected = ((u64::from(a) * u64::from(b)) >> 32) as u32;
+        let gpu = v[0] as u32 | (v[1] as u32) << 16;
+        assert_eq!(gpu, expected, "stbn_mul_hi({a}, {b}) on {}", g.name);
+    }
 }
 
 #[test]
