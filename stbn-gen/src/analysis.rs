@@ -207,7 +207,9 @@ mod filtered;
 mod histogram;
 mod vector;
 
-pub use convergence::{Convergence, ConvergenceOptions, Integrand, convergence};
+pub use convergence::{
+    Convergence, ConvergenceOptions, Integrand, RunningMean, convergence, running_mean,
+};
 pub use convergence2d::{Integrand2D, convergence_2d, toroidal_shift};
 pub use dft::{SpectrumImage, dft_xy_image, dft_xz_image};
 pub use filtered::{

@@ -180,9 +180,109 @@ pub(super) fn estimator_rmse<I: Iterator<Item = f64>>(
     }
 }
 
+/// The per-pixel running mean of a sequence read frame by frame, measured at chosen frame
+/// counts: [`running_mean`]'s result.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RunningMean {
+    /// The frame counts measured at, as given: strictly increasing, each `≥ 1`.
+    pub frames: Vec<usize>,
+    /// RMSE over pixels of the running mean against the exact value after each of `frames`.
+    pub rmse: Vec<f64>,
+    /// The error image `mean − exact` after the last of `frames`, row-major, `width × height`
+    /// (one slice for [`Field::new`], e.g. to measure [`spatial_low_band`](super::spatial_low_band)
+    /// of the error).
+    pub error: Vec<f64>,
+}
+
+/// The running mean over frames of a `width × height` image of per-pixel values produced by
+/// `frame(f, out)` (`out[y · width + x]` is pixel `(x, y)`'s value at frame `f`, for `f` in
+/// `0..last`), compared with `exact` after each count in `frames`.
+///
+/// Unlike [`convergence`], which reads a field's own `depth` frames (wrapping past them), the
+/// source is any sequence: a runtime view read past its depth, a baseline, white noise. The
+/// frames are read in order, once; `out` is reset to 0 before each call. Sums are taken in
+/// frame order per pixel, so the result does not depend on threads.
+///
+/// # Panics
+/// If `width` or `height` is 0, `frames` is empty, not strictly increasing, starts at 0 or
+/// exceeds 2³² (frame indices are `u32`).
+pub fn running_mean(
+    width: usize,
+    height: usize,
+    frames: &[usize],
+    exact: f64,
+    mut frame: impl FnMut(u32, &mut [f64]),
+) -> RunningMean {
+    assert!(width > 0 && height > 0, "an image has at least one pixel");
+    assert!(
+        !frames.is_empty() && frames[0] >= 1,
+        "measure after at least one frame"
+    );
+    assert!(
+        frames.windows(2).all(|w| w[0] < w[1]),
+        "frame counts must increase: {frames:?}"
+    );
+    let last = *frames.last().expect("not empty");
+    assert!(
+        last as u64 <= 1 << 32,
+        "{last} frames exceed the u32 frame indices"
+    );
+    let pixels = width * height;
+    let mut sums = vec![0.0f64; pixels];
+    let mut values = vec![0.0f64; pixels];
+    let mut rmse = Vec::with_capacity(frames.len());
+    let mut next = frames.iter().peekable();
+    for f in 0..last {
+        values.fill(0.0);
+        // `f < last <= 2^32`, so it fits in u32.
+        frame(f as u32, &mut values);
+        sums.iter_mut().zip(&values).for_each(|(s, v)| *s += v);
+        if next.peek() == Some(&&(f + 1)) {
+            next.next();
+            let n = (f + 1) as f64;
+            let squares: f64 = sums.iter().map(|s| (s / n - exact).powi(2)).sum();
+            rmse.push((squares / pixels as f64).sqrt());
+        }
+    }
+    let n = last as f64;
+    RunningMean {
+        frames: frames.to_vec(),
+        rmse,
+        error: sums.iter().map(|s| s / n - exact).collect(),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn running_mean_follows_its_definition() {
+        // Pixel i sees i, then 1 - i, alternating: its mean is exact after every even count.
+        let width = 3;
+        let values = [0.0, 0.25, 1.0];
+        let result = running_mean(width, 1, &[1, 2, 3, 4], 0.5, |f, out| {
+            for (o, v) in out.iter_mut().zip(values) {
+                *o = if f % 2 == 0 { v } else { 1.0 - v };
+            }
+        });
+        let first = ((0.25f64 + 0.0625 + 0.25) / 3.0).sqrt();
+        assert_eq!(result.frames, [1, 2, 3, 4]);
+        assert!((result.rmse[0] - first).abs() < 1e-15);
+        assert_eq!(result.rmse[1], 0.0);
+        assert_eq!(result.rmse[3], 0.0);
+        // After 3 frames pixel i's mean is (2 v + (1 - v)) / 3 = (1 + v) / 3.
+        let third: Vec<f64> = values.iter().map(|v| (1.0 + v) / 3.0 - 0.5).collect();
+        let expected = (third.iter().map(|e| e * e).sum::<f64>() / 3.0).sqrt();
+        assert!((result.rmse[2] - expected).abs() < 1e-15);
+        assert!(result.error.iter().all(|&e| e == 0.0));
+    }
+
+    #[test]
+    #[should_panic(expected = "frame counts must increase")]
+    fn running_mean_refuses_unordered_counts() {
+        running_mean(1, 1, &[4, 2], 0.5, |_, _| {});
+    }
 
     #[test]
     fn integrals_match_a_midpoint_rule() {
