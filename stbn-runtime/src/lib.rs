@@ -85,7 +85,11 @@
 //! [`Stbn`] samples at the requested position; [`Stbn::offset`] (a [`SampleOffset`]:
 //! x, y and a start frame) and [`Stbn::dimension`] (the R2-sequence offset of sample
 //! dimension `i`) return an [`OffsetStbn`], a cheap `Copy` view with the same methods that
-//! samples at the shifted position. Both offer:
+//! samples at the shifted position. [`Stbn::progressive`] (or [`OffsetStbn::progressive`]) is
+//! the view for renderers that accumulate more frames than the mask holds: frames `0..depth`
+//! are unchanged, and each later pass through the depth reads the mask at a new R2 offset, so a
+//! pixel's running mean keeps converging where [`Stbn::sample`] repeats the same `depth` values.
+//! All of them offer:
 //!
 //! | method | returns |
 //! |---|---|
