@@ -32,10 +32,13 @@ impl SampleOffset {
 }
 
 /// A mask seen through an offset: every method samples what the same method of the
-/// [`Stbn`] returns at `(x + offset.x, y + offset.y, frame + offset.frame)`.
+/// [`Stbn`] returns at `(x + offset.x, y + offset.y, frame + offset.frame)`, plus, for a
+/// [progressive](Self::progressive) view past the depth, the offset of the frame's epoch
+/// ([`sample_offset_at`](Self::sample_offset_at) gives the total at any frame).
 ///
-/// Made by [`Stbn::offset`] and [`Stbn::dimension`] (or `From<&Stbn>`, at offset zero);
-/// [`offset`](Self::offset) and [`dimension`](Self::dimension) add further offsets. It
+/// Made by [`Stbn::offset`], [`Stbn::dimension`] and [`Stbn::progressive`] (or `From<&Stbn>`,
+/// at offset zero); [`offset`](Self::offset) and [`dimension`](Self::dimension) add further
+/// offsets and [`progressive`](Self::progressive) turns the epochs on. It
 /// borrows the mask and is as cheap to copy as a reference. The sums are taken modulo
 /// the mask size exactly, as if computed in unbounded integers, even where they overflow
 /// `i32`/`u32`.
