@@ -82,7 +82,9 @@ pub fn encode_payload(volume: &Volume, encoding: Encoding) -> Vec<u8> {
 /// * `F32`: `(r + 0.5) / n` as `f32`.
 ///
 /// Compression: [`Compression::Lz4`] is the LZ4 *block* format (no size prefix),
-/// [`Compression::Deflate`] raw RFC 1951 at level [`DEFLATE_LEVEL`]. The output is deterministic.
+/// [`Compression::Deflate`] raw RFC 1951 at level [`DEFLATE_LEVEL`], [`Compression::Palette`] the
+/// sorted distinct voxels and a bit-packed index per voxel ([`palette`]). The output is
+/// deterministic.
 ///
 /// # Panics
 /// If the stored payload exceeds `u32::MAX` bytes, which no volume within [`stbn_gen::MaskSpec`]'s
@@ -105,6 +107,10 @@ fn finish(header: MaskHeader, decoded: Vec<u8>, compression: Compression) -> Vec
             &decoded,
             DEFLATE_LEVEL,
         )),
+        Compression::Palette => {
+            let voxel_bytes = usize::from(header.channels) * header.encoding.bytes_per_element();
+            Some(palette(&decoded, voxel_bytes))
+        }
     };
     let (compression, payload) = match compressed {
         Some(compressed) if compressed.len() < decoded.len() => (compression, compressed),
@@ -115,6 +121,42 @@ fn finish(header: MaskHeader, decoded: Vec<u8>, compression: Compression) -> Vec
     blob.extend_from_slice(&header.to_bytes());
     blob.extend_from_slice(&payload);
     blob
+}
+
+/// The [`Compression::Palette`] payload of `decoded` (voxels of `voxel_bytes` bytes): the count
+/// `P` of distinct voxels as a little-endian `u32`, those voxels in ascending byte order, then
+/// each voxel's index in `max(1, ⌈log2 P⌉)` bits, least significant bit first, the last byte
+/// padded with zeros. Memory beside `decoded` is proportional to `P`, not to the voxel count.
+fn palette(decoded: &[u8], voxel_bytes: usize) -> Vec<u8> {
+    let distinct: std::collections::HashSet<&[u8]> = decoded.chunks_exact(voxel_bytes).collect();
+    let mut entries: Vec<&[u8]> = distinct.into_iter().collect();
+    entries.sort_unstable();
+    let index: std::collections::HashMap<&[u8], u64> = entries
+        .iter()
+        .enumerate()
+        .map(|(i, e)| (*e, i as u64))
+        .collect();
+    let bits = (usize::BITS - (entries.len() - 1).leading_zeros()).max(1);
+    let voxels = decoded.len() / voxel_bytes;
+    let mut out =
+        Vec::with_capacity(4 + entries.len() * voxel_bytes + (voxels * bits as usize).div_ceil(8));
+    // P <= voxel count <= MAX_DECODED_BYTES = 2^31, so it fits in u32.
+    out.extend_from_slice(&(entries.len() as u32).to_le_bytes());
+    entries.iter().for_each(|e| out.extend_from_slice(e));
+    let (mut acc, mut have) = (0u64, 0u32);
+    for voxel in decoded.chunks_exact(voxel_bytes) {
+        acc |= index[voxel] << have;
+        have += bits;
+        while have >= 8 {
+            out.push(acc as u8);
+            acc >>= 8;
+            have -= 8;
+        }
+    }
+    if have > 0 {
+        out.push(acc as u8);
+    }
+    out
 }
 
 /// How a mask is laid out in a blob: the runtime [`Space`], the [`ValueMap`] of its value
@@ -421,7 +463,7 @@ mod tests {
             let plain = encode_volume(&volume, encoding, Compression::None);
             let view = Stbn::from_bytes(&plain).unwrap();
             assert_eq!(view.data(), encode_payload(&volume, encoding));
-            for compression in [Compression::Lz4, Compression::Deflate] {
+            for compression in [Compression::Lz4, Compression::Deflate, Compression::Palette] {
                 let blob = encode_volume(&volume, encoding, compression);
                 let packed = PackedStbn::from_bytes(&blob).unwrap();
                 assert_eq!(packed.decode().unwrap().data(), view.data());
@@ -466,6 +508,30 @@ mod tests {
             plain.len()
         );
         assert!(!stored_uncompressed(&plain, Compression::None));
+    }
+
+    #[test]
+    fn palettes_store_a_scalar_frame_in_log2_pixels_bits() {
+        // Every frame holds the same 4096 levels: 12-bit indices where Unorm16 stores 16 and F32
+        // 32, plus the levels once. Unorm8 holds each of its 256 levels 16 times a frame: 8 bits
+        // either way, so the palette is dropped.
+        let spec = stbn_gen::BaselineSpec::new(stbn_gen::BaselineKind::White, 64, 64, 8, 5);
+        let volume = stbn_gen::generate_baseline(&spec, stbn_gen::Observer::default()).unwrap();
+        let voxels = 64 * 64 * 8;
+        for (encoding, bytes) in [(Encoding::Unorm16, 2), (Encoding::F32, 4)] {
+            let blob = encode_volume(&volume, encoding, Compression::Palette);
+            assert!(!stored_uncompressed(&blob, Compression::Palette));
+            assert_eq!(
+                blob.len(),
+                MaskHeader::SIZE + 4 + 4096 * bytes + voxels * 12 / 8,
+                "{encoding:?}"
+            );
+            let plain = encode_volume(&volume, encoding, Compression::None);
+            let decoded = PackedStbn::from_bytes(&blob).unwrap().decode().unwrap();
+            assert_eq!(decoded.data(), &plain[MaskHeader::SIZE..]);
+        }
+        let blob = encode_volume(&volume, Encoding::Unorm8, Compression::Palette);
+        assert!(stored_uncompressed(&blob, Compression::Palette));
     }
 
     #[test]

@@ -13,7 +13,7 @@
 //!             density: 0.1,           // optional, default 0.1, in (0, 0.5] (void-and-cluster kinds)
 //!             kernel_tolerance: 5e-3, // optional, default 5e-3, in (0, 1)
 //!             encoding: Unorm8,       // Unorm8 | Unorm16 | F32
-//!             compression: Lz4,       // optional: None (default) | Lz4 | Deflate
+//!             compression: Lz4,       // optional: None (default) | Lz4 | Deflate | Palette
 //!         ),
 //!         (
 //!             name: "taa_blur",
@@ -907,6 +907,7 @@ enum CompressionDef {
     None,
     Lz4,
     Deflate,
+    Palette,
 }
 
 /// Strict and reserved keywords of Rust 2024 (a mask name must not be one).
@@ -1276,7 +1277,7 @@ fn enum_variants(field: &str) -> Option<&'static str> {
         }
         "filter_combination" => Some("`Product`, `Separate(spatial_weight)`"),
         "encoding" => Some("`Unorm8`, `Unorm16`, `F32`"),
-        "compression" => Some("`None`, `Lz4`, `Deflate`"),
+        "compression" => Some("`None`, `Lz4`, `Deflate`, `Palette`"),
         _ => None,
     }
 }

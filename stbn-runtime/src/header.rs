@@ -61,21 +61,30 @@ pub enum Compression {
     Lz4 = 1,
     /// Raw RFC 1951 deflate stream, without a zlib header or trailer.
     Deflate = 2,
+    /// The distinct voxels once, then one index per voxel: a little-endian `u32` palette length
+    /// `P` (`1 ≤ P ≤` voxel count), the `P` distinct voxels (each `channels × bytes_per_element`
+    /// bytes, as decoded), then each voxel's palette index in `max(1, ⌈log2 P⌉)` bits, packed
+    /// least significant bit first into bytes in voxel order, the last byte's unused bits 0.
+    /// Every frame of a scalar mask holds the same `width × height` levels, and every frame of a
+    /// vector mask the same stratified set, so the indices need `log2(width × height)` bits where
+    /// the data stores 16 or 32 per element.
+    Palette = 3,
 }
 
 impl Compression {
-    /// The enum for header byte 22, or `None` if `byte` is not 0, 1 or 2.
+    /// The enum for header byte 22, or `None` if `byte` is not 0, 1, 2 or 3.
     #[must_use]
     pub const fn from_u8(byte: u8) -> Option<Self> {
         match byte {
             0 => Some(Self::None),
             1 => Some(Self::Lz4),
             2 => Some(Self::Deflate),
+            3 => Some(Self::Palette),
             _ => None,
         }
     }
 
-    /// The header byte for this compression (0, 1 or 2).
+    /// The header byte for this compression (0, 1, 2 or 3).
     #[must_use]
     pub const fn to_u8(self) -> u8 {
         self as u8
@@ -275,7 +284,8 @@ pub struct MaskHeader {
     pub space: Space,
     /// Bytes stored after the header; equals [`decoded_len`](Self::decoded_len)
     /// when `compression` is [`Compression::None`]; otherwise non-zero and at least
-    /// `decoded_len / 255` (LZ4) or `decoded_len / 1032` (Deflate).
+    /// `decoded_len / 255` (LZ4), `decoded_len / 1032` (Deflate) or, for [`Compression::Palette`],
+    /// 4 bytes, one voxel and one bit per voxel.
     pub payload_len: u32,
     /// `crc32fast::hash` (CRC-32/IEEE) of the stored (possibly compressed) payload.
     pub payload_crc32: u32,
@@ -414,7 +424,8 @@ impl MaskHeader {
     /// docs), the decoded size bound ([`MAX_DECODED_BYTES`]), for
     /// [`Compression::None`] `payload_len == decoded_len`, and for a compressed payload that
     /// `payload_len` can hold `decoded_len` (at most 255 decoded bytes per stored byte for LZ4,
-    /// 1032 for Deflate, the formats' largest expansions).
+    /// 1032 for Deflate, the formats' largest expansions; for a palette, its length, one voxel and
+    /// one bit per voxel).
     ///
     /// # Errors
     /// [`Error::Truncated`], [`Error::BadMagic`], [`Error::UnsupportedVersion`],
@@ -595,6 +606,20 @@ impl MaskHeader {
                     return Err(invalid("payload_len", reason));
                 }
             }
+            Compression::Palette => {
+                // At least the length, one palette voxel and one bit per voxel: a blob asks for
+                // at most 8 × (bytes per voxel <= 16) = 128 decoded bytes per stored byte.
+                let voxel_bytes =
+                    header.channels as u64 * header.encoding.bytes_per_element() as u64;
+                let voxels = decoded_len as u64 / voxel_bytes;
+                if (header.payload_len as u64) < 4 + voxel_bytes + voxels.div_ceil(8) {
+                    return Err(invalid(
+                        "payload_len",
+                        "too small for the decoded size: a palette payload holds its length, \
+                         one palette voxel and at least one bit per voxel",
+                    ));
+                }
+            }
         }
         Ok(header)
     }
@@ -748,7 +773,7 @@ mod tests {
             }
         }
         assert_eq!(Encoding::from_u8(3), None);
-        assert_eq!(Compression::from_u8(3), None);
+        assert_eq!(Compression::from_u8(4), None);
         assert_eq!(ValueMap::from_u8(3), None);
         for b in 0..=255u8 {
             if let Some(s) = Space::from_u8(b) {

@@ -150,6 +150,11 @@ impl<'a> PackedStbn<'a> {
             Compression::None => out.copy_from_slice(self.payload),
             Compression::Lz4 => lz4_into(self.payload, out)?,
             Compression::Deflate => inflate_into(self.payload, out)?,
+            Compression::Palette => {
+                let voxel_bytes =
+                    usize::from(header.channels) * header.encoding.bytes_per_element();
+                unpalette_into(self.payload, voxel_bytes, out)?;
+            }
         }
         let data: &'b [u8] = out;
         if !header.compression.is_none() {
@@ -183,8 +188,8 @@ impl<'a> PackedStbn<'a> {
     ///
     /// The allocation is fallible: a refused one is an error, not an abort. It is bounded by
     /// the stream before it is made: the header was refused unless the stored payload can
-    /// decode to `decoded_len` (at most 255 bytes per stored byte for LZ4, 1032 for Deflate), so
-    /// a blob asks for at most that multiple of its own size.
+    /// decode to `decoded_len` (at most 255 bytes per stored byte for LZ4, 1032 for Deflate, 128
+    /// for a palette), so a blob asks for at most that multiple of its own size.
     ///
     /// # Errors
     /// As [`decode_into`](Self::decode_into), minus [`Error::BufferTooSmall`];
@@ -239,6 +244,107 @@ fn inflate_into(payload: &[u8], out: &mut [u8]) -> Result<(), Error> {
         }),
         _ => Err(Error::Decompress),
     }
+}
+
+/// Decodes a [`Compression::Palette`] payload into exactly `out.len()` bytes of
+/// `voxel_bytes`-byte voxels. Refuses (as [`Error::Decompress`]) a palette length of 0 or above
+/// the voxel count, a payload of any length but the one the palette length implies, an index at
+/// or beyond the palette, and non-zero padding bits: each decoded mask has one encoding.
+fn unpalette_into(payload: &[u8], voxel_bytes: usize, out: &mut [u8]) -> Result<(), Error> {
+    let voxels = out.len() / voxel_bytes;
+    let Some((count, rest)) = payload.split_first_chunk::<4>() else {
+        return Err(Error::Decompress);
+    };
+    let count = u32::from_le_bytes(*count) as usize;
+    if count == 0 || count > voxels {
+        return Err(Error::Decompress);
+    }
+    // ceil(log2(count)), at least 1; count <= voxels < 2^31, so bits <= 31.
+    let bits = (usize::BITS - (count - 1).leading_zeros()).max(1);
+    let palette_len = count * voxel_bytes;
+    // voxels * bits < 2^31 * 31 fits in u64 (and in usize on 64-bit targets; computed in u64).
+    let index_len = (voxels as u64 * u64::from(bits)).div_ceil(8);
+    if rest.len() as u64 != palette_len as u64 + index_len {
+        return Err(Error::Decompress);
+    }
+    let (palette, indices) = rest.split_at(palette_len);
+    let bits = Bits::new(indices, bits);
+    // The common voxel sizes get a loop whose copies are fixed-size moves.
+    match voxel_bytes {
+        1 => unpalette_voxels::<1>(palette, count, &bits, out)?,
+        2 => unpalette_voxels::<2>(palette, count, &bits, out)?,
+        4 => unpalette_voxels::<4>(palette, count, &bits, out)?,
+        8 => unpalette_voxels::<8>(palette, count, &bits, out)?,
+        _ => {
+            for (i, voxel) in out.chunks_exact_mut(voxel_bytes).enumerate() {
+                let index = bits.get(i);
+                if index >= count {
+                    return Err(Error::Decompress);
+                }
+                // index < count, so the entry lies inside the palette.
+                voxel.copy_from_slice(&palette[index * voxel_bytes..][..voxel_bytes]);
+            }
+        }
+    }
+    // The bits after the last index, up to the end of its byte, must be 0.
+    let used = voxels as u64 * u64::from(bits.bits);
+    let last = indices.last().copied().unwrap_or(0);
+    if used % 8 != 0 && last >> (used % 8) != 0 {
+        return Err(Error::Decompress);
+    }
+    Ok(())
+}
+
+/// Fixed-width indices packed least significant bit first, read at any position.
+struct Bits<'p> {
+    bytes: &'p [u8],
+    /// Index width, 1..=31.
+    bits: u32,
+}
+
+impl<'p> Bits<'p> {
+    const fn new(bytes: &'p [u8], bits: u32) -> Self {
+        Self { bytes, bits }
+    }
+
+    /// Index `i`: the `bits` bits from bit `i · bits`. Reads the 8 bytes from the index's first
+    /// byte at once where they exist (the index and its shift span at most 38 bits), byte by
+    /// byte near the end; bytes past the end read as 0 (the caller checked the length).
+    #[inline(always)]
+    fn get(&self, i: usize) -> usize {
+        let at = i as u64 * u64::from(self.bits);
+        let (byte, shift) = ((at / 8) as usize, (at % 8) as u32);
+        let word = match self.bytes.get(byte..byte + 8) {
+            Some(b) => u64::from_le_bytes([b[0], b[1], b[2], b[3], b[4], b[5], b[6], b[7]]),
+            None => self
+                .bytes
+                .get(byte..)
+                .unwrap_or(&[])
+                .iter()
+                .rev()
+                .fold(0, |w, &b| w << 8 | u64::from(b)),
+        };
+        ((word >> shift) & ((1 << self.bits) - 1)) as usize
+    }
+}
+
+/// The palette loop for voxels of `B` bytes: `palette` holds `count` of them, and each index is
+/// checked against `count`.
+fn unpalette_voxels<const B: usize>(
+    palette: &[u8],
+    count: usize,
+    bits: &Bits<'_>,
+    out: &mut [u8],
+) -> Result<(), Error> {
+    for (i, voxel) in out.chunks_exact_mut(B).enumerate() {
+        let index = bits.get(i);
+        if index >= count {
+            return Err(Error::Decompress);
+        }
+        // index < count, so the entry lies inside the palette.
+        voxel.copy_from_slice(&palette[index * B..][..B]);
+    }
+    Ok(())
 }
 
 /// A decoded mask that owns its data (feature `alloc`).

@@ -1,11 +1,19 @@
-//! `PackedStbn`: views, no-alloc decoding of LZ4/Deflate payloads, and broken streams.
+//! `PackedStbn`: views, no-alloc decoding of LZ4/Deflate/palette payloads, and broken streams.
 
 mod common;
 
-use common::{Rng, blob, compress, header, packed_blob, random_payload};
+use common::{Rng, blob, compress, header, packed_blob, random_payload, voxel_bytes};
 use stbn_runtime::{Compression, Encoding, Error, MaskHeader, PackedStbn, Stbn};
 
+/// The byte-stream codecs, whose decoders report a stream of the wrong length as such.
 const COMPRESSED: [Compression; 2] = [Compression::Lz4, Compression::Deflate];
+/// Every codec.
+const ALL: [Compression; 4] = [
+    Compression::None,
+    Compression::Lz4,
+    Compression::Deflate,
+    Compression::Palette,
+];
 
 /// Payloads of several kinds: random, constant, ramp (compressible), for a few shapes.
 fn cases() -> Vec<(MaskHeader, Vec<u8>)> {
@@ -42,7 +50,7 @@ fn cases() -> Vec<(MaskHeader, Vec<u8>)> {
 #[test]
 fn decode_into_round_trips_every_compression() {
     for (h, data) in cases() {
-        for compression in [Compression::None, Compression::Lz4, Compression::Deflate] {
+        for compression in ALL {
             let bytes = packed_blob(h, compression, &data);
             let packed = PackedStbn::from_bytes(&bytes).unwrap();
             assert_eq!(packed.header().compression, compression);
@@ -110,7 +118,7 @@ fn views_require_an_uncompressed_payload() {
 fn mismatched(h: MaskHeader, compression: Compression, stream_data: &[u8]) -> Vec<u8> {
     blob(
         MaskHeader { compression, ..h },
-        &compress(compression, stream_data),
+        &compress(compression, stream_data, voxel_bytes(&h)),
     )
 }
 
@@ -157,7 +165,7 @@ fn wrong_decoded_size_is_reported() {
 #[test]
 fn deflate_trailing_bytes_after_the_stream_are_rejected() {
     let (h, data) = cases().swap_remove(2);
-    let mut stored = compress(Compression::Deflate, &data);
+    let mut stored = compress(Compression::Deflate, &data, 1);
     stored.push(0);
     let bytes = blob(
         MaskHeader {
@@ -181,8 +189,8 @@ fn corrupted_streams_error_and_never_panic() {
     let mut rng = Rng(77);
     let mut errors = 0;
     for (h, data) in cases().into_iter().take(9) {
-        for compression in COMPRESSED {
-            let good = compress(compression, &data);
+        for compression in [Compression::Lz4, Compression::Deflate, Compression::Palette] {
+            let good = compress(compression, &data, voxel_bytes(&h));
             let header = MaskHeader { compression, ..h };
             let mut buf = vec![0; data.len()];
             // Truncated streams (re-signed so the CRC passes): always an error, from the
@@ -245,4 +253,117 @@ fn corrupting_a_stored_stream_without_resigning_is_a_checksum_error() {
             Error::PayloadChecksum
         );
     }
+}
+
+/// A palette blob of `h` with the payload given as its parts.
+fn palette_blob(h: MaskHeader, count: u32, palette: &[u8], indices: &[u8]) -> Vec<u8> {
+    let mut payload = count.to_le_bytes().to_vec();
+    payload.extend_from_slice(palette);
+    payload.extend_from_slice(indices);
+    blob(
+        MaskHeader {
+            compression: Compression::Palette,
+            ..h
+        },
+        &payload,
+    )
+}
+
+/// Palette sizes around every bit-width step decode exactly, in the documented size.
+#[test]
+fn palettes_use_ceil_log2_bits_per_voxel() {
+    for (count, bits) in [
+        (1u32, 1u32),
+        (2, 1),
+        (3, 2),
+        (4, 2),
+        (5, 3),
+        (256, 8),
+        (257, 9),
+    ] {
+        let h = header(32, 16, 2, 1, Encoding::Unorm16);
+        let voxels = 32 * 16 * 2;
+        let data: Vec<u8> = (0..voxels)
+            .flat_map(|i| ((i * 7 % count as usize) as u16 * 3).to_le_bytes())
+            .collect();
+        let bytes = packed_blob(h, Compression::Palette, &data);
+        assert_eq!(
+            bytes.len() - 64,
+            4 + 2 * count as usize + (voxels * bits as usize).div_ceil(8),
+            "{count} entries"
+        );
+        let mut buf = vec![0; data.len()];
+        let view = PackedStbn::from_bytes(&bytes)
+            .unwrap()
+            .decode_into(&mut buf)
+            .unwrap();
+        assert_eq!(view.data(), &data[..], "{count} entries");
+    }
+}
+
+/// Every malformed palette payload is refused as a bad stream; none panics.
+#[test]
+fn malformed_palettes_are_refused() {
+    let h = header(4, 2, 1, 1, Encoding::Unorm8); // 8 voxels of 1 byte
+    let palette = [10, 20, 30];
+    // 8 two-bit indices (0, 1, 2, 0, 1, 2, 0, 1), least significant bit first.
+    let good = [0b00_10_01_00, 0b01_00_10_01];
+    let decode = |bytes: &[u8]| {
+        let mut buf = vec![0; 8];
+        PackedStbn::from_bytes(bytes)
+            .and_then(|p| p.decode_into(&mut buf).map(|v| v.data().to_vec()))
+    };
+    assert_eq!(
+        decode(&palette_blob(h, 3, &palette, &good)).unwrap(),
+        [10, 20, 30, 10, 20, 30, 10, 20]
+    );
+    let bad: [(&str, Vec<u8>); 6] = [
+        (
+            "empty palette",
+            palette_blob(h, 0, &[10, 20, 30, 40, 50, 60, 70], &[0; 2]),
+        ),
+        (
+            "more entries than voxels",
+            palette_blob(h, 9, &[0; 9], &[0; 3]),
+        ),
+        (
+            "an index past the palette",
+            palette_blob(h, 3, &palette, &[0b11_00_00_00, 0]),
+        ),
+        (
+            "non-zero padding",
+            // 5 voxels of 2 bits: 10 bits, the last 6 of the second byte unused.
+            palette_blob(
+                header(5, 1, 1, 1, Encoding::Unorm8),
+                3,
+                &palette,
+                &[0, 0b0100],
+            ),
+        ),
+        (
+            "a trailing byte",
+            palette_blob(h, 3, &palette, &[good[0], good[1], 0]),
+        ),
+        ("a missing byte", palette_blob(h, 3, &palette, &[good[0]])),
+    ];
+    for (what, bytes) in &bad {
+        let mut buf = vec![0; 8];
+        let err = PackedStbn::from_bytes(bytes)
+            .and_then(|p| p.decode_into(&mut buf).map(|_| ()))
+            .unwrap_err();
+        assert!(
+            matches!(err, Error::Decompress | Error::InvalidField { .. }),
+            "{what}: {err:?}"
+        );
+    }
+    // A payload shorter than its length field, one voxel and a bit per voxel is refused by
+    // the header, before anything is allocated.
+    let tiny = palette_blob(header(2048, 2048, 8, 4, Encoding::F32), 1, &[0; 16], &[]);
+    assert!(matches!(
+        PackedStbn::from_bytes(&tiny).unwrap_err(),
+        Error::InvalidField {
+            field: "payload_len",
+            ..
+        }
+    ));
 }

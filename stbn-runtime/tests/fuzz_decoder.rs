@@ -130,7 +130,12 @@ fn built_corpus() -> Vec<Vec<u8>> {
     let mut corpus = Vec::new();
     for (space, map, channels) in shapes {
         for encoding in [Encoding::Unorm8, Encoding::Unorm16, Encoding::F32] {
-            for compression in [Compression::None, Compression::Lz4, Compression::Deflate] {
+            for compression in [
+                Compression::None,
+                Compression::Lz4,
+                Compression::Deflate,
+                Compression::Palette,
+            ] {
                 corpus.push(seed_blob(
                     space,
                     map,

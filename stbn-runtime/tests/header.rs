@@ -78,7 +78,12 @@ fn header_round_trips_and_matches_the_documented_layout() {
     assert_eq!(h.element_count(), 11 * 7 * 9 * 3);
 
     for encoding in [Encoding::Unorm8, Encoding::Unorm16, Encoding::F32] {
-        for compression in [Compression::None, Compression::Lz4, Compression::Deflate] {
+        for compression in [
+            Compression::None,
+            Compression::Lz4,
+            Compression::Deflate,
+            Compression::Palette,
+        ] {
             for value_map in [ValueMap::Unit, ValueMap::Signed] {
                 let h = MaskHeader {
                     encoding,
@@ -140,7 +145,12 @@ fn valid_blob_is_accepted_everywhere() {
 
 #[test]
 fn truncation_at_every_length_is_an_error() {
-    for compression in [Compression::None, Compression::Lz4, Compression::Deflate] {
+    for compression in [
+        Compression::None,
+        Compression::Lz4,
+        Compression::Deflate,
+        Compression::Palette,
+    ] {
         let h = header(4, 3, 2, 1, Encoding::Unorm8);
         let bytes = packed_blob(h, compression, &random_payload(&h, &mut Rng(1)));
         for len in 0..bytes.len() {
@@ -200,7 +210,12 @@ fn every_header_bit_flip_is_detected_with_the_right_error() {
 
 #[test]
 fn every_payload_byte_flip_is_a_checksum_error() {
-    for compression in [Compression::None, Compression::Lz4, Compression::Deflate] {
+    for compression in [
+        Compression::None,
+        Compression::Lz4,
+        Compression::Deflate,
+        Compression::Palette,
+    ] {
         let h = header(5, 3, 2, 1, Encoding::Unorm8);
         let bytes = packed_blob(h, compression, &random_payload(&h, &mut Rng(3)));
         for i in 64..bytes.len() {
@@ -253,7 +268,8 @@ fn each_field_range_is_enforced() {
     assert!(invalid("channels")(field_error(20, &[0])));
     assert!(invalid("channels")(field_error(20, &[5])));
     assert!(invalid("channels")(field_error(20, &[255])));
-    for bad in [3u8, 4, 128, 255] {
+    assert!(invalid("encoding")(field_error(21, &[3])));
+    for bad in [4u8, 5, 128, 255] {
         assert!(invalid("encoding")(field_error(21, &[bad])));
         assert!(invalid("compression")(field_error(22, &[bad])));
     }

@@ -9,7 +9,12 @@ use stbn_runtime::{Compression, Encoding, Error, MaskHeader, PackedStbn};
 fn decode_matches_decode_into() {
     let h = header(9, 4, 3, 2, Encoding::Unorm16);
     let data = random_payload(&h, &mut Rng(4));
-    for compression in [Compression::None, Compression::Lz4, Compression::Deflate] {
+    for compression in [
+        Compression::None,
+        Compression::Lz4,
+        Compression::Deflate,
+        Compression::Palette,
+    ] {
         let bytes = packed_blob(h, compression, &data);
         let packed = PackedStbn::from_bytes(&bytes).unwrap();
         let owned = packed.decode().unwrap();

@@ -23,7 +23,12 @@ fn f32_payload(header: &MaskHeader, fill: f32, at: usize, bad: f32) -> Vec<u8> {
 /// through both constructors, and each compression through `decode_into` and `decode`.
 fn verified_results(header: MaskHeader, data: &[u8]) -> Vec<(String, Result<(), Error>)> {
     let mut out = Vec::new();
-    for compression in [Compression::None, Compression::Lz4, Compression::Deflate] {
+    for compression in [
+        Compression::None,
+        Compression::Lz4,
+        Compression::Deflate,
+        Compression::Palette,
+    ] {
         let bytes = packed_blob(header, compression, data);
         // The checksums are valid: only the values are wrong.
         let packed = PackedStbn::from_bytes_unverified(&bytes).unwrap();

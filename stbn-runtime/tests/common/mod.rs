@@ -46,18 +46,53 @@ pub fn random_payload(h: &MaskHeader, rng: &mut Rng) -> Vec<u8> {
     }
 }
 
-/// `data` compressed as `compression` prescribes.
-pub fn compress(compression: Compression, data: &[u8]) -> Vec<u8> {
+/// `data` (voxels of `voxel_bytes` bytes) compressed as `compression` prescribes.
+pub fn compress(compression: Compression, data: &[u8], voxel_bytes: usize) -> Vec<u8> {
     match compression {
         Compression::None => data.to_vec(),
         Compression::Lz4 => lz4_flex::block::compress(data),
         Compression::Deflate => miniz_oxide::deflate::compress_to_vec(data, 6),
+        Compression::Palette => palette(data, voxel_bytes),
     }
+}
+
+/// A [`Compression::Palette`] payload of `data`, written from the format's description (an
+/// oracle independent of build-support's encoder): the sorted distinct voxels, then each
+/// voxel's index in `max(1, ⌈log2 P⌉)` bits, least significant bit first.
+pub fn palette(data: &[u8], voxel_bytes: usize) -> Vec<u8> {
+    let mut entries: Vec<&[u8]> = data.chunks_exact(voxel_bytes).collect();
+    entries.sort_unstable();
+    entries.dedup();
+    let bits = (usize::BITS - (entries.len() - 1).leading_zeros()).max(1);
+    let mut out = (entries.len() as u32).to_le_bytes().to_vec();
+    entries.iter().for_each(|e| out.extend_from_slice(e));
+    let (mut acc, mut have) = (0u128, 0u32);
+    for voxel in data.chunks_exact(voxel_bytes) {
+        let index = entries
+            .binary_search(&voxel)
+            .expect("every voxel is an entry");
+        acc |= (index as u128) << have;
+        have += bits;
+        while have >= 8 {
+            out.push(acc as u8);
+            acc >>= 8;
+            have -= 8;
+        }
+    }
+    if have > 0 {
+        out.push(acc as u8);
+    }
+    out
+}
+
+/// Bytes per voxel of `h`'s decoded data.
+pub fn voxel_bytes(h: &MaskHeader) -> usize {
+    usize::from(h.channels) * h.encoding.bytes_per_element()
 }
 
 /// A complete blob of `data` (the decoded payload of `h`) stored with `compression`.
 pub fn packed_blob(mut h: MaskHeader, compression: Compression, data: &[u8]) -> Vec<u8> {
     assert_eq!(data.len(), h.decoded_len());
     h.compression = compression;
-    blob(h, &compress(compression, data))
+    blob(h, &compress(compression, data, voxel_bytes(&h)))
 }

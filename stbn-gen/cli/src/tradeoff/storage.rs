@@ -17,7 +17,12 @@ use crate::Result;
 use crate::output::{self, Axis, Cell, Chart, Series, SeriesLabelPosition, Style, Table};
 
 const ENCODINGS: [Encoding; 3] = [Encoding::Unorm8, Encoding::Unorm16, Encoding::F32];
-const COMPRESSIONS: [Compression; 3] = [Compression::None, Compression::Lz4, Compression::Deflate];
+const COMPRESSIONS: [Compression; 4] = [
+    Compression::None,
+    Compression::Lz4,
+    Compression::Deflate,
+    Compression::Palette,
+];
 
 /// A generated mask of either kind.
 enum Mask {
@@ -338,7 +343,7 @@ fn median_seconds(min_total: f64, mut work: impl FnMut()) -> f64 {
     runs[runs.len() / 2]
 }
 
-/// None / Lz4 / Deflate for scalar masks in every encoding and vector masks in Unorm8 and
+/// None / Lz4 / Deflate / Palette for scalar masks in every encoding and vector masks in Unorm8 and
 /// Unorm16: embedded bytes, encode time, and the runtime's verify and decode times.
 pub fn compression(plan: &Plan) -> Result<Section> {
     let mut table = Table::new(&[
@@ -440,8 +445,9 @@ pub fn compression(plan: &Plan) -> Result<Section> {
                 });
             }
             findings.push(format!(
-                "{name} {encoding:?}: embedded bytes None / Lz4 / Deflate = {} / {} / {}.",
-                sizes[0], sizes[1], sizes[2]
+                "{name} {encoding:?}: embedded bytes None / Lz4 / Deflate / Palette = \
+                 {} / {} / {} / {}.",
+                sizes[0], sizes[1], sizes[2], sizes[3]
             ));
         }
     }
@@ -450,7 +456,8 @@ pub fn compression(plan: &Plan) -> Result<Section> {
         title: "5. Compression".to_owned(),
         method: format!(
             "Blobs from `stbn_build_support::encode` (Lz4: LZ4 block format; Deflate: raw \
-             RFC 1951 at level 9). **Embedded bytes** is the whole blob (64-byte header + \
+             RFC 1951 at level 9; Palette: the distinct voxels once and a ⌈log2 P⌉-bit index \
+             per voxel). **Embedded bytes** is the whole blob (64-byte header + \
              payload): what `include_bytes!` adds to the binary for this mask; a codec that \
              does not shrink the payload is dropped by the encoder, so its blob is the None \
              one. **Encode** is \
