@@ -284,8 +284,6 @@ impl SwapKernel {
             let it = || spatial.iter().map(f);
             (it().min().unwrap_or(0), it().max().unwrap_or(0))
         };
-        let total: f64 =
-            spatial.iter().map(|t| t.2).sum::<f64>() + temporal.iter().map(|t| t.1).sum::<f64>();
         let (dx_range, dy_range) = (range(|t| t.0), range(|t| t.1));
         let columns = (dx_range.1 - dx_range.0 + 1) as usize;
         let mut tap_at_offset = vec![u32::MAX; columns * (dy_range.1 - dy_range.0 + 1) as usize];
@@ -293,7 +291,7 @@ impl SwapKernel {
             let cell = (dy - dy_range.0) as usize * columns + (dx - dx_range.0) as usize;
             tap_at_offset[cell] = k as u32;
         }
-        SwapKernel {
+        let mut kernel = SwapKernel {
             width: w,
             height: h,
             depth: d,
@@ -304,9 +302,11 @@ impl SwapKernel {
             spatial,
             temporal,
             inv_sigma_value_sq: (1.0 / (config.sigma_value * config.sigma_value)) as f32,
-            margin: Self::MARGIN * total,
+            margin: 0.0,
             modelled_assignment: config.parameters <= 2,
-        }
+        };
+        kernel.margin = Self::MARGIN * kernel.total_weight();
+        kernel
     }
 
     /// The sum of every pair weight (spatial and temporal taps), dimensionless: a pixel's energy
