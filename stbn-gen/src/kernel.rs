@@ -125,9 +125,17 @@ pub(crate) fn smallest_sigma(tolerance: f64) -> f64 {
         tolerance > 0.0 && tolerance < 1.0,
         "kernel tolerance {tolerance} is not in (0, 1)"
     );
-    let exact = 1.0 / cutoff(tolerance).sqrt();
-    let mut shown = round_up_4(exact);
-    while !keeps_unit_offset(shown, tolerance) {
+    smallest_four_digit(1.0 / cutoff(tolerance).sqrt(), |sigma| {
+        keeps_unit_offset(sigma, tolerance)
+    })
+}
+
+/// The smallest four-significant-digit figure from `estimate` up that `accepts`: `estimate`
+/// rounded up, then stepped up a digit at a time (a figure a message shows is then itself
+/// accepted). `accepts` must hold from some figure on.
+pub(crate) fn smallest_four_digit(estimate: f64, accepts: impl Fn(f64) -> bool) -> f64 {
+    let mut shown = round_up_4(estimate);
+    while !accepts(shown) {
         shown = round_up_4(shown * (1.0 + 1e-4));
     }
     shown

@@ -15,7 +15,7 @@ use std::fmt;
 use rand::Rng;
 use rayon::prelude::*;
 
-use crate::kernel::{round_down_4, round_up_4};
+use crate::kernel::{round_down_4, round_up_4, smallest_four_digit};
 use crate::observe::Observer;
 use crate::rng::{self, keyed_rng};
 use crate::space::{SampleSpace, hilbert_key, unit_hilbert_key};
@@ -247,11 +247,9 @@ impl VectorSpec {
         if !(tolerance > 0.0 && tolerance < 1.0) {
             return None;
         }
-        let exact = 1.0 / (1.0 / tolerance).ln().sqrt();
-        let mut min = round_up_4(exact);
-        while !keeps_unit_offset(min, tolerance) {
-            min = round_up_4(min * (1.0 + 1e-4));
-        }
+        let min = smallest_four_digit(1.0 / (1.0 / tolerance).ln().sqrt(), |sigma| {
+            keeps_unit_offset(sigma, tolerance)
+        });
         let slice_length = self.width.max(self.height);
         let max = if slice_length >= 2 {
             round_down_4(Self::MAX_SIGMA_IMAGE_PER_LENGTH * f64::from(slice_length))
