@@ -171,20 +171,21 @@ pub fn run(
             }
         }
         // Both families are measured on their generated values: scalar masks as one field,
-        // vector masks in their own space (decoded components, the space's pdf).
+        // vector masks in their own space (decoded components, the space's pdf); past the
+        // depth, on the encoded mask through the runtime.
         let size = (w as usize, h as usize, d as usize);
         let row = match &generated {
             Generated::Scalar(volume) => {
                 let values = volume.values();
                 let field = Field::new(size.0, size.1, size.2, &values)
                     .expect("a mask's values are a field");
-                report.measure(name, &kind, Some(seconds), &field)?
+                report.measure_encoded(name, &kind, Some(seconds), &field, &mask)?
             }
             Generated::Vector { volume, .. } => {
                 let space = sample_space(entry).expect("a vector mask has a sample space");
                 let field =
                     VectorField::new(&space, size, volume.values()).map_err(|e| mask_error(&e))?;
-                report.measure_vector(name, &kind, Some(seconds), &field)?
+                report.measure_vector(name, &kind, Some(seconds), &field, &mask)?
             }
         };
         outln!("{}", row.summary());

@@ -23,6 +23,7 @@ mod generate;
 mod ktx2;
 mod output;
 mod pairs;
+mod past_depth;
 mod report;
 mod staging;
 mod tradeoff;

@@ -1,9 +1,10 @@
 //! The quality figures of one mask ([`Row`]) and the `report.md` of several: a table, the
-//! convergence figures of every integrand, PNG plots in `plots/`, DFT magnitude images in `dft/`
-//! and every number as CSV in `csv/`.
+//! convergence figures of every integrand (within the depth, and past it for encoded masks),
+//! PNG plots in `plots/`, DFT magnitude images in `dft/` and every number as CSV in `csv/`.
 
 mod csv;
 mod guide;
+mod past_depth;
 mod spectrum_images;
 mod vector;
 
@@ -19,8 +20,11 @@ use stbn_gen::analysis::{
     spatial_low_band, spectrum_fold, temporal_low_band, temporal_spectrum,
 };
 
+use stbn_runtime::Stbn;
+
 use crate::Result;
 use crate::output::{self, Axis, Cell, Chart, Column, Series, SeriesLabelPosition, Style, Table};
+pub use past_depth::PastDepth;
 pub use vector::VectorFigures;
 
 /// Bins of the histogram-deviation column. 16 divides every power-of-two slice size from 16
@@ -82,6 +86,10 @@ pub struct Row {
     pub convergence_late: Vec<Convergence>,
     /// The figures only a vector mask has; `None` for scalar masks.
     pub vector: Option<VectorFigures>,
+    /// The running-mean error past the mask's depth, read through the runtime from the encoded
+    /// mask ([`PastDepth`]); why it was not measured otherwise (analysed slices, or a vector
+    /// space whose test functions do not apply to the encoded components).
+    pub past_depth: std::result::Result<PastDepth, String>,
 }
 
 /// The DFT magnitude images of one mask: [`dft_xy_image`] (mean over the frames, `width ×
@@ -94,7 +102,7 @@ pub struct Spectra {
 }
 
 /// The steps of [`Row::measure_with_progress`], in order, named for a progress bar.
-const MEASURE_STEPS: [&str; 11] = [
+const MEASURE_STEPS: [&str; 12] = [
     "spatial low band",
     "temporal low band",
     "histograms",
@@ -105,23 +113,27 @@ const MEASURE_STEPS: [&str; 11] = [
     "filtered error",
     "convergence",
     "convergence from frame ⌊frames/3⌋",
+    "convergence past the depth",
     "done",
 ];
 
 impl Row {
-    /// Measures `field` (its DFT images too), without progress.
+    /// Measures `field` (its DFT images too), without progress or an encoded mask.
     #[cfg(test)]
     pub fn measure(name: &str, kind: &str, seconds: Option<f64>, field: &Field) -> (Row, Spectra) {
-        Self::measure_with_progress(name, kind, seconds, field, &mut |_, _| {})
+        Self::measure_with_progress(name, kind, seconds, field, None, &mut |_, _| {})
     }
 
-    /// Measures `field` (its DFT images too), calling `progress(step, name)` before each of its steps and
-    /// `progress(steps, "done")` at the end (steps of [`MEASURE_STEPS`]).
+    /// Measures `field` (its DFT images too), and `encoded`, the mask `field` was encoded to,
+    /// past its depth ([`PastDepth`]; not measured without it), calling `progress(step, name)`
+    /// before each of its steps and `progress(steps, "done")` at the end (steps of
+    /// [`MEASURE_STEPS`]).
     fn measure_with_progress(
         name: &str,
         kind: &str,
         seconds: Option<f64>,
         field: &Field,
+        encoded: Option<&Stbn<'_>>,
         progress: &mut dyn FnMut(usize, &'static str),
     ) -> (Row, Spectra) {
         let mut step = 0;
@@ -151,6 +163,11 @@ impl Row {
         next();
         let convergence_late = converge(field, field.depth() / 3);
         next();
+        let past_depth = encoded.map_or_else(
+            || Err(past_depth::NOT_ENCODED.to_owned()),
+            past_depth::measure_scalar,
+        );
+        next();
         let row = Row {
             name: name.to_owned(),
             size: (field.width(), field.height(), field.depth()),
@@ -166,6 +183,7 @@ impl Row {
             convergence,
             convergence_late,
             vector: None,
+            past_depth,
         };
         (row, Spectra { xy, xz })
     }
@@ -246,7 +264,8 @@ impl Report {
     }
 
     /// Measures `field` as mask `name` with a progress bar (on a terminal), writes its DFT
-    /// images and keeps its figures; returns them.
+    /// images and keeps its figures; returns them. Not encoded, it has no figures past the
+    /// depth ([`Report::measure_encoded`]).
     pub fn measure(
         &mut self,
         name: &str,
@@ -254,23 +273,51 @@ impl Report {
         seconds: Option<f64>,
         field: &Field,
     ) -> Result<&Row> {
+        self.measure_scalar(name, kind, seconds, field, None)
+    }
+
+    /// [`Report::measure`] of a generated scalar mask whose values are `field` and whose
+    /// encoded bytes are `encoded`: read past its depth through the runtime ([`PastDepth`]).
+    pub fn measure_encoded(
+        &mut self,
+        name: &str,
+        kind: &str,
+        seconds: Option<f64>,
+        field: &Field,
+        encoded: &Stbn<'_>,
+    ) -> Result<&Row> {
+        self.measure_scalar(name, kind, seconds, field, Some(encoded))
+    }
+
+    /// [`Report::measure`], with the figures past the depth when `encoded`.
+    fn measure_scalar(
+        &mut self,
+        name: &str,
+        kind: &str,
+        seconds: Option<f64>,
+        field: &Field,
+        encoded: Option<&Stbn<'_>>,
+    ) -> Result<&Row> {
         let (row, spectra) = with_measure_bar(name, MEASURE_STEPS.len(), |progress| {
-            Row::measure_with_progress(name, kind, seconds, field, progress)
+            Row::measure_with_progress(name, kind, seconds, field, encoded, progress)
         });
         self.push(row, &spectra)?;
         Ok(self.rows.last().expect("a row was pushed"))
     }
 
-    /// [`Report::measure`] for a vector mask, measured in its own space ([`VectorFigures`]).
+    /// [`Report::measure_encoded`] for a vector mask, measured in its own space
+    /// ([`VectorFigures`]), and past its depth through `encoded` with its space's test
+    /// functions.
     pub fn measure_vector(
         &mut self,
         name: &str,
         kind: &str,
         seconds: Option<f64>,
         field: &VectorField,
+        encoded: &Stbn<'_>,
     ) -> Result<&Row> {
         let (row, spectra) = with_measure_bar(name, vector::STEPS.len(), |progress| {
-            vector::measure(name, kind, seconds, field, progress)
+            vector::measure(name, kind, seconds, field, encoded, progress)
         });
         self.push(row, &spectra)?;
         Ok(self.rows.last().expect("a row was pushed"))
@@ -291,6 +338,7 @@ impl Report {
     pub fn finish(self, intro: &str, sections: &str) -> Result<PathBuf> {
         let mut figures = figures(&self.rows);
         figures.extend(vector::figures(&self.rows));
+        figures.extend(past_depth::figure(&self.rows));
         let bar = bar(
             figures.len() as u64 + 2,
             "report: writing",
@@ -722,6 +770,7 @@ encoding and PNG quantisation; those of analysed files on the decoded samples, \
     partial_section(&mut text, rows);
     vector::section(&mut text, rows);
     convergence_section(&mut text, rows);
+    past_depth::section(&mut text, rows);
     plot_section(&mut text, rows);
     dft_section(&mut text, rows);
     csv_section(&mut text, rows);
@@ -1183,7 +1232,21 @@ mod tests {
     #[test]
     fn write_creates_the_report_and_every_linked_file() {
         let dir = tempfile::tempdir().unwrap();
-        let rows = [row("a", None, None), row("b", Some(1.0), Some(0.3))];
+        // `b` is measured past its depth, as an encoded 4×2×2 mask.
+        let ranks: Vec<u32> = (0..16).collect();
+        let blob = stbn_build_support::encode::encode_volume(
+            &stbn_gen::Volume::from_global_ranks(4, 2, 2, &ranks),
+            stbn_runtime::Encoding::Unorm8,
+            stbn_runtime::Compression::None,
+        );
+        let encoded = Stbn::from_bytes(&blob).unwrap();
+        let rows = [
+            row("a", None, None),
+            Row {
+                past_depth: past_depth::measure_scalar(&encoded),
+                ..row("b", Some(1.0), Some(0.3))
+            },
+        ];
         let values = ramp_field();
         let (_, spectra) = Row::measure("x", "", None, &Field::new(8, 8, 4, &values).unwrap());
         let mut report = Report::create(dir.path()).unwrap();
@@ -1199,8 +1262,21 @@ mod tests {
             .map(|rest| &rest[..rest.find(')').unwrap()])
             .collect();
         let count = |ext: &str| links.iter().filter(|l| l.ends_with(ext)).count();
-        assert_eq!(count(".png"), 3 + 2 * Integrand::ALL.len() + 2 * rows.len());
-        assert_eq!(count(".csv"), 5);
+        // The plots of every mask, the convergence plots, a DFT pair per mask and the one plot
+        // past the depth.
+        assert_eq!(
+            count(".png"),
+            3 + 2 * Integrand::ALL.len() + 2 * rows.len() + 1
+        );
+        assert_eq!(count(".csv"), 6);
+        assert!(
+            text.contains("\n- `a`: not measured: analysed slices and baselines are not encoded"),
+            "{text}"
+        );
+        assert!(
+            text.contains("\n**`b`** (4×2×2, depth 2): RMSE over all 4×2 pixels."),
+            "{text}"
+        );
         for link in links {
             let bytes = fs::read(dir.path().join(link)).unwrap();
             if link.ends_with(".png") {
@@ -1216,6 +1292,8 @@ mod tests {
             text.lines().count()
         };
         assert_eq!(lines("summary.csv"), 1 + rows.len());
+        // `b` only: 3 integrands, 3 readings, 6 frame counts.
+        assert_eq!(lines("convergence_past_depth.csv"), 1 + 3 * 3 * 6);
         assert_eq!(lines("filtered_error.csv"), 1 + 2 * rows.len());
         assert_eq!(
             lines("convergence.csv"),

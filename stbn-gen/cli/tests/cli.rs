@@ -78,7 +78,13 @@ fn generate_writes_slices_and_a_report_that_analyze_reproduces() {
     assert_eq!(blue2d.bit_depth(), PngDepth::Sixteen);
 
     let report = fs::read_to_string(out.join("report.md")).unwrap();
-    let rows: Vec<&str> = report.lines().filter(|l| l.starts_with("| ")).collect();
+    // The figures table: its heading row and one row per mask.
+    let rows: Vec<&str> = report[report.find("\n## Figures\n").unwrap()..]
+        .lines()
+        .skip_while(|l| !l.starts_with("| "))
+        .take_while(|l| l.starts_with('|'))
+        .filter(|l| l.starts_with("| "))
+        .collect();
     assert_eq!(rows.len(), 3, "{report}");
     assert!(
         rows[1].starts_with("| scalar_16 | 16×16×8 | spatiotemporal | "),

@@ -38,8 +38,9 @@ const COINCIDENT: f64 = 0.004;
 /// Length in pixels of one dash of a coincident series.
 const DASH: f64 = 10.0;
 
-/// Series colours with their names for captions; series `i` uses entry `i % len`.
-const PALETTE: [(&str, RGBColor); 8] = [
+/// Series colours with their names for captions; series `i` uses entry `i % len`. Sixteen, so
+/// that a chart of five masks read three ways names each series by a colour of its own.
+const PALETTE: [(&str, RGBColor); 16] = [
     ("blue", RGBColor(31, 119, 180)),
     ("orange", RGBColor(255, 127, 14)),
     ("green", RGBColor(44, 160, 44)),
@@ -48,6 +49,14 @@ const PALETTE: [(&str, RGBColor); 8] = [
     ("brown", RGBColor(140, 86, 75)),
     ("pink", RGBColor(227, 119, 194)),
     ("grey", RGBColor(127, 127, 127)),
+    ("olive", RGBColor(188, 189, 34)),
+    ("cyan", RGBColor(23, 190, 207)),
+    ("navy", RGBColor(31, 31, 122)),
+    ("teal", RGBColor(0, 128, 128)),
+    ("maroon", RGBColor(128, 0, 0)),
+    ("magenta", RGBColor(204, 0, 204)),
+    ("gold", RGBColor(204, 163, 0)),
+    ("slate", RGBColor(112, 128, 144)),
 ];
 
 /// The name of the colour series `series` is drawn in (`blue`, `orange`, …).

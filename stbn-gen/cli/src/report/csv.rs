@@ -8,6 +8,7 @@
 //! | `convergence.csv` | `mask, integrand, estimator, start_frame, samples, rmse` |
 //! | `radial_spectrum.csv` | `mask, ring, cycles_per_pixel, normalised_power` |
 //! | `temporal_spectrum.csv` | `mask, frequency, cycles_per_frame, normalised_power` |
+//! | `convergence_past_depth.csv` | `mask, function, reading, frames, frames_per_depth, rmse, window_width, window_height, error_spatial_low_band` |
 //! | `vector_components.csv` | `mask, space, component, spatial_low_band, temporal_low_band` (only with vector masks) |
 //! | `vector_convergence.csv` | `mask, function, samples_from, estimator, samples, rmse` (only with vector masks) |
 //!
@@ -21,7 +22,7 @@ use std::path::Path;
 
 use stbn_gen::analysis::{Integrand, radial_rings_per_cycle};
 
-use super::{Estimator, Row, summary_table};
+use super::{Estimator, Row, past_depth, summary_table};
 use crate::Result;
 use crate::output::{self, Cell, Column, Table};
 
@@ -145,6 +146,16 @@ pub fn files(rows: &[Row], vector: bool) -> Vec<CsvFile> {
             table: long_table(
                 ["mask", "frequency", "cycles_per_frame", "normalised_power"],
                 temporal,
+            ),
+        },
+        CsvFile {
+            name: "convergence_past_depth.csv",
+            about: "running-mean RMSE past the depth per encoded mask, function, reading (wrap, \
+                    progressive or white), and frame count, with the measured window; the \
+                    error image's spatial low band at the last count",
+            table: long_table(
+                past_depth::CSV_COLUMNS,
+                rows.iter().flat_map(past_depth::csv_rows),
             ),
         },
     ];

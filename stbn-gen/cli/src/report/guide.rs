@@ -176,6 +176,7 @@ mod tests {
             convergence: Vec::new(),
             convergence_late: Vec::new(),
             vector: None,
+            past_depth: Err(super::super::past_depth::NOT_ENCODED.to_owned()),
         }
     }
 

@@ -13,6 +13,8 @@ use stbn_gen::analysis::{
     vector_convergence,
 };
 
+use stbn_runtime::Stbn;
+
 use super::{CONVERGENCE_SAMPLES, Estimator, Figure, HISTOGRAM_BINS, Row, Spectra, at_samples};
 use crate::output::{self, Axis, Cell, Chart, Column, Series, SeriesLabelPosition, Style, Table};
 
@@ -85,23 +87,26 @@ impl VectorFigures {
 }
 
 /// The steps of [`measure`], in order, named for a progress bar.
-pub const STEPS: [&str; 7] = [
+pub const STEPS: [&str; 8] = [
     "low bands per component",
     "distribution against the pdf",
     "DFT images",
     "spectra",
     "filtered error",
     "test functions",
+    "convergence past the depth",
     "done",
 ];
 
-/// Measures the vector mask `field` as mask `name`, calling `progress(step, name)` before each
-/// of [`STEPS`].
+/// Measures the vector mask `field` as mask `name`, and `encoded`, the mask it was encoded to,
+/// past its depth with the test functions of its space, calling `progress(step, name)` before
+/// each of [`STEPS`].
 pub fn measure(
     name: &str,
     kind: &str,
     seconds: Option<f64>,
     field: &VectorField,
+    encoded: &Stbn<'_>,
     progress: &mut dyn FnMut(usize, &'static str),
 ) -> (Row, Spectra) {
     let mut step = 0;
@@ -157,6 +162,8 @@ pub fn measure(
         })
         .collect();
     next();
+    let past_depth = super::past_depth::measure_vector(encoded, space);
+    next();
     let mean_band = |band: fn(&ComponentBands) -> Option<f64>| {
         let known: Vec<f64> = bands.iter().filter_map(band).collect();
         (!known.is_empty()).then(|| known.iter().sum::<f64>() / known.len() as f64)
@@ -181,6 +188,7 @@ pub fn measure(
             white,
             tests,
         }),
+        past_depth,
     };
     (row, Spectra { xy, xz })
 }
