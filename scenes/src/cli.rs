@@ -1,19 +1,20 @@
 //! The command line shared by the scene binaries: options, and [`run`], which renders scenes
-//! with the four noises and writes their tables and strips.
+//! with the noises of a [`Study`] and writes their tables and strips.
 
 use std::collections::HashMap;
 use std::collections::hash_map::Entry;
 use std::error::Error;
 use std::fs;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use clap::{Parser, ValueEnum};
+use clap::{CommandFactory, FromArgMatches, Parser, ValueEnum};
 use stbn_runtime::Encoding;
 
 use crate::compare::{Backend, Comparison};
 use crate::gpu::GpuContext;
-use crate::noise::{NoiseKind, NoiseMask, NoiseSpec, generate_all};
+use crate::noise::{NoiseKind, NoiseMask, NoiseSpec, generate_all, generate_past_depth};
+use crate::render::frames_to_render;
 use crate::report;
 use crate::scene::{Scene, SceneInput};
 use crate::strip;
@@ -80,11 +81,75 @@ pub struct Options {
     pub device: DeviceArg,
 }
 
-/// Generates the noises the scenes take ([`NoiseKind::for_input`]), renders every scene with
-/// each on the chosen device, and writes
-/// `<out>/<scene>/rmse.md`, `rmse.csv` and the strips; prints the Markdown to stdout and
-/// progress and (noisy, wall-clock) timings to stderr.
-pub fn run(options: &Options, scenes: &[&dyn Scene]) -> Result<(), Box<dyn Error>> {
+impl Options {
+    /// Parses the process's arguments with `checkpoints` (comma-separated frame counts) as the
+    /// default of `--checkpoints`; exits with clap's message on bad arguments.
+    pub fn parse_with_checkpoints(checkpoints: &'static str) -> Options {
+        let matches = Options::command()
+            .mut_arg("checkpoints", |arg| arg.default_value(checkpoints))
+            .get_matches();
+        Options::from_arg_matches(&matches).unwrap_or_else(|e| e.exit())
+    }
+}
+
+/// Which noise sources a binary compares, and where it writes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Study {
+    /// Every source of the scene's input ([`NoiseKind::for_input`]), into `<out>/<scene>/`.
+    AllSources,
+    /// White noise with a slice per frame, STBN wrapping every `depth` frames and STBN read
+    /// progressively ([`generate_past_depth`]), into `<out>/<scene>_past_depth/`: what reading
+    /// a mask progressively buys when the frames outnumber its depth. Scalar scenes only.
+    PastDepth,
+}
+
+impl Study {
+    /// The masks compared on scenes that take `input`, over runs of `frames` frames, generated
+    /// at `spec`.
+    ///
+    /// # Errors
+    /// The generator's, or a scene input the study has no sources for.
+    pub fn masks(
+        self,
+        input: SceneInput,
+        spec: &NoiseSpec,
+        frames: u32,
+    ) -> Result<Vec<NoiseMask>, Box<dyn Error>> {
+        Ok(match (self, input) {
+            (Study::AllSources, _) => generate_all(NoiseKind::for_input(input), spec)?,
+            (Study::PastDepth, SceneInput::Scalar) => {
+                generate_past_depth(spec, frames).map_err(|e| {
+                    format!("white noise with a slice for each of {frames} frames, or STBN: {e}")
+                })?
+            }
+            (Study::PastDepth, SceneInput::Direction) => {
+                let message = "the past-depth study compares scalar sources, not directions";
+                return Err(message.into());
+            }
+        })
+    }
+
+    /// The name of the study's comparison of `scene` (its output directory and table heading).
+    pub fn comparison_name(self, scene: &str) -> String {
+        match self {
+            Study::AllSources => scene.to_owned(),
+            Study::PastDepth => format!("{scene}_past_depth"),
+        }
+    }
+}
+
+/// Generates the noises `study` compares on each scene ([`Study::masks`]), renders every
+/// scene with each on the chosen device, and writes `<out>/<name>/rmse.md`, `rmse.csv` and the
+/// strips (`name` from [`Study::comparison_name`]); prints the Markdown to stdout and progress
+/// and (noisy, wall-clock) timings to stderr.
+///
+/// # Errors
+/// Checkpoints that are not strictly increasing frame counts from 1, no device, a mask the
+/// generator or the device rejects, a scene the study has no sources for, or a file that cannot
+/// be written (named).
+pub fn run(options: &Options, study: Study, scenes: &[&dyn Scene]) -> Result<(), Box<dyn Error>> {
+    let frames =
+        frames_to_render(&options.checkpoints).map_err(|e| format!("--checkpoints: {e}"))?;
     let spec = NoiseSpec {
         width: options.mask_size,
         height: options.mask_size,
@@ -106,37 +171,63 @@ pub fn run(options: &Options, scenes: &[&dyn Scene]) -> Result<(), Box<dyn Error
         let input = scene.input();
         if let Entry::Vacant(slot) = masks.entry(input) {
             let start = Instant::now();
-            let kinds = NoiseKind::for_input(input);
-            slot.insert(generate_all(kinds, &spec)?);
+            let masks = study
+                .masks(input, &spec, frames)
+                .map_err(|e| format!("{}: {e}", scene.name()))?;
             eprintln!(
-                "generated {} masks of {}×{}×{} ({:?}) in {:.1} s",
-                kinds.len(),
-                spec.width,
-                spec.height,
-                spec.depth,
-                spec.encoding,
+                "generated {} masks ({}) in {:.1} s",
+                masks.len(),
+                mask_sizes(&masks, &spec),
                 start.elapsed().as_secs_f64()
             );
+            slot.insert(masks);
         }
         let start = Instant::now();
-        let cmp = Comparison::run(*scene, &masks[&input], &options.checkpoints, backend)?;
+        let mut cmp = Comparison::run(*scene, &masks[&input], &options.checkpoints, backend)?;
+        cmp.scene = study.comparison_name(&cmp.scene);
         eprintln!(
             "{}: rendered and measured on {device_name} in {:.1} s",
             cmp.scene,
             start.elapsed().as_secs_f64()
         );
         let dir = options.out.join(&cmp.scene);
-        fs::create_dir_all(&dir)?;
+        let named = |path: &Path| {
+            let path = path.display().to_string();
+            move |e: std::io::Error| format!("{path}: {e}")
+        };
+        fs::create_dir_all(&dir).map_err(named(&dir))?;
         let mut md = report::markdown(&cmp);
         md.push_str(&format!(
-            "Masks {0}×{0}×{1}, {2:?}, seed {3}; rendered on {device_name}.\n",
-            spec.width, spec.depth, spec.encoding, spec.seed
+            "Masks {}; rendered on {device_name}.\n",
+            mask_sizes(&masks[&input], &spec)
         ));
-        fs::write(dir.join("rmse.md"), &md)?;
-        fs::write(dir.join("rmse.csv"), report::csv(&cmp))?;
-        let strips = strip::write_strips(&dir, &cmp)?;
+        let (md_path, csv_path) = (dir.join("rmse.md"), dir.join("rmse.csv"));
+        fs::write(&md_path, &md).map_err(named(&md_path))?;
+        fs::write(&csv_path, report::csv(&cmp)).map_err(named(&csv_path))?;
+        let strips = strip::write_strips(&dir, &cmp).map_err(named(&dir))?;
         println!("{md}");
         eprintln!("wrote {} and {} strips", dir.display(), strips.len());
     }
     Ok(())
+}
+
+/// `128×128×64, Unorm16, seed 1`: the masks' size (per source where they differ, e.g.
+/// `white noise 128×128×1024, STBN 128×128×64, …`), encoding and seed.
+fn mask_sizes(masks: &[NoiseMask], spec: &NoiseSpec) -> String {
+    let size = |m: &NoiseMask| {
+        let view = m.view();
+        format!("{}×{}×{}", view.width(), view.height(), view.depth())
+    };
+    let sizes: Vec<String> = masks.iter().map(size).collect();
+    let sizes = if sizes.windows(2).all(|w| w[0] == w[1]) {
+        sizes.first().cloned().unwrap_or_default()
+    } else {
+        let per_source: Vec<String> = masks
+            .iter()
+            .zip(&sizes)
+            .map(|(m, s)| format!("{} {s}", m.kind.label()))
+            .collect();
+        per_source.join(", ")
+    };
+    format!("{sizes}, {:?}, seed {}", spec.encoding, spec.seed)
 }

@@ -1,6 +1,7 @@
 //! [`Comparison`]: one scene rendered with every noise source, and the RMSE of each against the
 //! scene's ground truth.
 
+use stbn_gen::analysis::{Field, SpectrumImage, dft_xy_image, spatial_low_band};
 use stbn_runtime::gpu::GpuError;
 
 use crate::gpu::{GpuContext, GpuSceneRenderer};
@@ -57,6 +58,11 @@ pub enum Metric {
     /// [`BLUR_SIGMA`] pixels ([`gaussian_blur`]): the error left after a spatial filter, where
     /// blue noise's high-frequency error mostly cancels.
     BlurredRmse,
+    /// Where the error sits in frequency: the mean normalised power of the error image
+    /// (image − ground truth) in the spatial low band `0 < |f| ≤ size / 8`, as
+    /// [`stbn_gen::analysis::spatial_low_band`] defines it for a mask slice. Dimensionless:
+    /// about 1 for white error, near 0 for blue error; independent of the error's size.
+    ErrorLowBand,
 }
 
 /// σ of [`Metric::BlurredRmse`]'s Gaussian in pixels: 1.3435, the spatial σ of EA's FAST
@@ -64,14 +70,15 @@ pub enum Metric {
 pub const BLUR_SIGMA: f64 = 1.3435;
 
 impl Metric {
-    /// Both, in table order.
-    pub const ALL: [Metric; 2] = [Metric::Rmse, Metric::BlurredRmse];
+    /// Every metric, in table order.
+    pub const ALL: [Metric; 3] = [Metric::Rmse, Metric::BlurredRmse, Metric::ErrorLowBand];
 
     /// A short lowercase name for CSV rows.
     pub fn name(self) -> &'static str {
         match self {
             Metric::Rmse => "rmse",
             Metric::BlurredRmse => "blurred_rmse",
+            Metric::ErrorLowBand => "error_low_band",
         }
     }
 
@@ -80,6 +87,7 @@ impl Metric {
         match self {
             Metric::Rmse => "RMSE",
             Metric::BlurredRmse => "RMSE after a Gaussian blur (σ 1.3435 px)",
+            Metric::ErrorLowBand => "Error image's low-band power (0 < |f| ≤ size/8, white = 1)",
         }
     }
 }
@@ -138,10 +146,10 @@ impl Comparison {
                 scene.name()
             );
             let noise = mask.view();
-            let mode = mask.kind.sample_mode();
+            let (order, mode) = (mask.kind.frame_order(), mask.kind.sample_mode());
             let images = match &gpu {
-                Some(renderer) => renderer.render(&noise, mode, checkpoints)?,
-                None => render_cpu(scene, &noise, mode, checkpoints),
+                Some(renderer) => renderer.render(&noise, order, mode, checkpoints)?,
+                None => render_cpu(scene, &noise, order, mode, checkpoints),
             };
             runs.push(NoiseRun {
                 kind: mask.kind,
@@ -177,8 +185,19 @@ impl Comparison {
         self.error(kind, accumulation, Metric::Rmse, frames)
     }
 
+    /// `kind`'s `accumulation` image after `frames` frames, if that run and checkpoint exist.
+    fn image(&self, kind: NoiseKind, accumulation: Accumulation, frames: u32) -> Option<&[f32]> {
+        let checkpoint = self
+            .run_of(kind)?
+            .checkpoints
+            .iter()
+            .find(|c| c.frames == frames)?;
+        Some(accumulation.image(checkpoint))
+    }
+
     /// The `metric` error of `kind`'s `accumulation` image after `frames` frames against the
-    /// ground truth, if that run and checkpoint exist.
+    /// ground truth, if that run and checkpoint exist (and, for [`Metric::ErrorLowBand`], the
+    /// image is larger than 1 × 1).
     pub fn error(
         &self,
         kind: NoiseKind,
@@ -186,19 +205,114 @@ impl Comparison {
         metric: Metric,
         frames: u32,
     ) -> Option<f64> {
-        let checkpoint = self
-            .run_of(kind)?
-            .checkpoints
-            .iter()
-            .find(|c| c.frames == frames)?;
-        let image = accumulation.image(checkpoint);
-        Some(match metric {
-            Metric::Rmse => rmse(image, &self.ground_truth),
+        let image = self.image(kind, accumulation, frames)?;
+        match metric {
+            Metric::Rmse => Some(rmse(image, &self.ground_truth)),
             Metric::BlurredRmse => {
                 let blur = |p: &[f64]| gaussian_blur(p, self.width, self.height, BLUR_SIGMA);
                 let image: Vec<f64> = image.iter().map(|&v| f64::from(v)).collect();
-                rmse_f64(&blur(&image), &blur(&self.ground_truth))
+                Some(rmse_f64(&blur(&image), &blur(&self.ground_truth)))
             }
-        })
+            Metric::ErrorLowBand => {
+                let error = self.error_field_values(image);
+                spatial_low_band(&self.error_field(&error))
+            }
+        }
+    }
+
+    /// The centred DFT magnitude image ([`dft_xy_image`]) of `kind`'s `accumulation` error
+    /// image after `frames` frames, if that run and checkpoint exist: `width × height`
+    /// magnitudes normalised like a mask slice's (white error about 0.89 everywhere, blue error
+    /// dark around the centre).
+    pub fn error_spectrum(
+        &self,
+        kind: NoiseKind,
+        accumulation: Accumulation,
+        frames: u32,
+    ) -> Option<SpectrumImage> {
+        let image = self.image(kind, accumulation, frames)?;
+        let error = self.error_field_values(image);
+        Some(dft_xy_image(&self.error_field(&error)))
+    }
+
+    /// `image − ground truth` mapped affinely onto `[0, 1]` (minimum to 0, maximum to 1; all 0
+    /// for a constant error), the value range a [`Field`] takes. The normalised spectra divide
+    /// by the variance after removing the mean, so the map leaves them unchanged.
+    fn error_field_values(&self, image: &[f32]) -> Vec<f64> {
+        let error: Vec<f64> = image
+            .iter()
+            .zip(&self.ground_truth)
+            .map(|(&v, &truth)| f64::from(v) - truth)
+            .collect();
+        let min = error.iter().copied().fold(f64::INFINITY, f64::min);
+        let max = error.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let range = if max > min { max - min } else { 1.0 };
+        error.iter().map(|e| (e - min) / range).collect()
+    }
+
+    /// `values` ([`error_field_values`](Self::error_field_values)) as a one-slice field.
+    fn error_field<'v>(&self, values: &'v [f64]) -> Field<'v> {
+        Field::new(self.width as usize, self.height as usize, 1, values)
+            .expect("the error image has the comparison's size and values in [0, 1]")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::image::Image;
+
+    /// A 16 × 16 comparison with ground truth 0.5 and one white-noise run whose mean image
+    /// after 1 frame is `0.5 + error(x, y)`.
+    fn comparison(error: impl Fn(u32, u32) -> f32) -> Comparison {
+        let n = 16;
+        let pixels = (0..n * n).map(|i| 0.5 + error(i % n, i / n)).collect();
+        let image = Image::from_pixels(n, n, pixels);
+        Comparison {
+            scene: "toy".into(),
+            description: "a toy".into(),
+            width: n,
+            height: n,
+            ground_truth: vec![0.5; (n * n) as usize],
+            runs: vec![NoiseRun {
+                kind: NoiseKind::White,
+                checkpoints: vec![Checkpoint {
+                    frames: 1,
+                    ema: image.clone(),
+                    mean: image,
+                }],
+            }],
+        }
+    }
+
+    fn low_band(cmp: &Comparison) -> f64 {
+        cmp.error(
+            NoiseKind::White,
+            Accumulation::Mean,
+            Metric::ErrorLowBand,
+            1,
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn error_low_band_sees_where_the_error_sits_not_its_size() {
+        // A checkerboard has all its power at Nyquist, outside the low band.
+        let checker = |x: u32, y: u32| if (x + y).is_multiple_of(2) { 0.1 } else { -0.1 };
+        assert!(low_band(&comparison(checker)) < 1e-12);
+        // One cycle across the image: all its power sits at |f| = 1, inside the band.
+        let wave = |x: u32, _| (std::f32::consts::TAU * x as f32 / 16.0).cos() * 0.1;
+        let smooth = low_band(&comparison(wave));
+        assert!(smooth > 10.0, "{smooth}");
+        // Scaling or shifting the error leaves the normalised power unchanged.
+        let scaled = low_band(&comparison(|x, y| 0.3 * wave(x, y) + 0.05));
+        assert!((scaled / smooth - 1.0).abs() < 1e-4, "{scaled} vs {smooth}");
+        // A constant error has no power anywhere.
+        assert_eq!(low_band(&comparison(|_, _| 0.2)), 0.0);
+        let spectrum = comparison(wave)
+            .error_spectrum(NoiseKind::White, Accumulation::Mean, 1)
+            .unwrap();
+        assert_eq!((spectrum.width, spectrum.height), (16, 16));
+        assert!(spectrum.at(1, 0) > 1.0 && spectrum.at(3, 5) < 1e-6);
     }
 }

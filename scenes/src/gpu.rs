@@ -13,7 +13,7 @@ use wgpu::util::DeviceExt;
 use crate::accumulate::{self, EMA_ALPHA};
 use crate::image::Image;
 use crate::render::{Checkpoint, frames_to_render};
-use crate::sample::{SampleMode, wgsl_pixel_sample};
+use crate::sample::{FrameOrder, SampleMode, wgsl_pixel_sample};
 use crate::scene::Scene;
 
 /// Why no GPU device could be set up.
@@ -231,19 +231,21 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {{
         })
     }
 
-    /// Uploads `noise`, renders frames `0..last checkpoint` with samples read under `mode` (one
-    /// dispatch per frame) and reads the accumulated images back at each checkpoint (frame
-    /// counts, strictly increasing, from 1).
+    /// Uploads `noise`, renders frames `0..last checkpoint` with samples read in `order` (the
+    /// uniforms of [`FrameOrder::view`]) under `mode` (one dispatch per frame) and reads the
+    /// accumulated images back at each checkpoint (frame counts, strictly increasing, from 1;
+    /// panics otherwise, see [`frames_to_render`]).
     ///
     /// # Errors
     /// The runtime's upload error if the mask exceeds the device's 3D texture limits.
     pub fn render(
         &self,
         noise: &Stbn<'_>,
+        order: FrameOrder,
         mode: SampleMode,
         checkpoints: &[u32],
     ) -> Result<Vec<Checkpoint>, stbn_gpu::GpuError> {
-        let frames = frames_to_render(checkpoints);
+        let frames = frames_to_render(checkpoints).unwrap_or_else(|e| panic!("{e}"));
         let pipeline = self.pipeline(mode, noise.header().value_map);
         let device = &self.ctx.device;
         let queue = &self.ctx.queue;
@@ -267,10 +269,11 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {{
                 usage: wgpu::BufferUsages::UNIFORM,
             })
         };
-        let noise_dim0 = mask_uniform("noise dimension 0", MaskUniform::new(noise, &texture));
+        let noise_view = order.view(noise);
+        let noise_dim0 = mask_uniform("noise dimension 0", MaskUniform::new(noise_view, &texture));
         let noise_dim1 = mask_uniform(
             "noise dimension 1",
-            MaskUniform::new(noise.dimension(1), &texture),
+            MaskUniform::new(noise_view.dimension(1), &texture),
         );
         let frame_params = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("frame params"),

@@ -3,10 +3,12 @@
 //! vector STBN buys over white vectors and pairs of scalar STBN values (the AO scene).
 //!
 //! Every scene draws one random sample per pixel per frame from a mask, accumulates 64 frames
-//! with an EMA (α = 0.1, as TAA does) and a running mean, and measures the RMSE against a
-//! converged ground truth after 1, 4, 16 and 64 frames. The masks come from `stbn-gen`, are
-//! encoded as `.stbn` blobs and read through `stbn-runtime`: [`render`] on the CPU, [`gpu`]
-//! through wgpu compute shaders that sample with the runtime's WGSL snippet.
+//! with an EMA (α = 0.1, as TAA does) and a running mean, and measures the RMSE and the error
+//! image's low-band power against a converged ground truth after 1, 4, 16 and 64 frames (the
+//! past-depth study, [`cli::Study::PastDepth`]: 1024 frames, with STBN read both wrapping and
+//! through `Stbn::progressive`). The masks come from `stbn-gen`, are encoded as `.stbn` blobs
+//! and read through `stbn-runtime`: [`render`] on the CPU, [`gpu`] through wgpu compute shaders
+//! that sample with the runtime's WGSL snippet.
 //!
 //! - [`noise`]: the sources; [`sample`]: how a pixel reads its sample; [`scene`]: the [`Scene`]
 //!   trait.

@@ -15,7 +15,7 @@ use stbn_gen::{
 };
 use stbn_runtime::{Compression, Encoding, Stbn};
 
-use crate::sample::SampleMode;
+use crate::sample::{FrameOrder, SampleMode};
 use crate::scene::SceneInput;
 
 /// Which noise a pixel reads its random numbers from.
@@ -31,7 +31,13 @@ pub enum NoiseKind {
     /// `fract(v + z · φ⁻¹)` on the rank grid ([`BaselineKind::GoldenRatio2D`]).
     GoldenRatio2D,
     /// Spatiotemporal blue noise ([`EnergyTopology::Spatiotemporal`]): blue in space and time.
+    /// Read with plain [`Stbn::sample`], so frame `t` reads slice `t mod depth`: the sequence
+    /// repeats every `depth` frames.
     Stbn,
+    /// The [`NoiseKind::Stbn`] mask read through [`Stbn::progressive`]: frames `0..depth` are
+    /// the mask itself, and each later pass through the depth reads it shifted toroidally by
+    /// the pass's R2 offset, so a pixel keeps meeting new values past the depth.
+    StbnProgressive,
     /// White cosine-hemisphere directions: each frame a stratified set of cosine-distributed
     /// directions in a random arrangement (a vector mask with no swaps and
     /// [`InitialArrangement::Random`]).
@@ -75,6 +81,7 @@ impl NoiseKind {
             NoiseKind::Blue2D => "blue2d",
             NoiseKind::GoldenRatio2D => "golden_ratio_2d",
             NoiseKind::Stbn => "stbn",
+            NoiseKind::StbnProgressive => "stbn_progressive",
             NoiseKind::WhiteVectors => "white_vectors",
             NoiseKind::StbnPairs => "stbn_pairs",
             NoiseKind::StbnVectors => "stbn_vectors",
@@ -88,23 +95,47 @@ impl NoiseKind {
             NoiseKind::Blue2D => "2D blue noise, independent per frame",
             NoiseKind::GoldenRatio2D => "2D blue noise + golden ratio per frame",
             NoiseKind::Stbn => "STBN",
+            NoiseKind::StbnProgressive => "STBN, progressive",
             NoiseKind::WhiteVectors => "white cosine vectors",
             NoiseKind::StbnPairs => "scalar STBN pairs → cosine",
             NoiseKind::StbnVectors => "vector STBN (cosine hemisphere)",
         }
     }
 
-    /// Whether this is the spatiotemporal source of its group (the one tables highlight).
+    /// Whether this is a spatiotemporal source (tables highlight the last one of their rows).
     pub fn is_stbn(self) -> bool {
-        matches!(self, NoiseKind::Stbn | NoiseKind::StbnVectors)
+        matches!(
+            self,
+            NoiseKind::Stbn | NoiseKind::StbnProgressive | NoiseKind::StbnVectors
+        )
+    }
+
+    /// Which mask slice a pixel reads at each frame.
+    pub fn frame_order(self) -> FrameOrder {
+        match self {
+            NoiseKind::StbnProgressive => FrameOrder::Progressive,
+            _ => FrameOrder::Wrap,
+        }
+    }
+
+    /// The source whose mask this one reads: [`NoiseKind::Stbn`] for the sources that read the
+    /// STBN mask differently ([`NoiseKind::StbnPairs`], [`NoiseKind::StbnProgressive`]), else
+    /// the source itself.
+    pub fn mask_source(self) -> NoiseKind {
+        match self {
+            NoiseKind::StbnPairs | NoiseKind::StbnProgressive => NoiseKind::Stbn,
+            kind => kind,
+        }
     }
 
     /// How a pixel's sample is read from this source's mask.
     pub fn sample_mode(self) -> SampleMode {
         match self {
-            NoiseKind::White | NoiseKind::Blue2D | NoiseKind::GoldenRatio2D | NoiseKind::Stbn => {
-                SampleMode::Scalar
-            }
+            NoiseKind::White
+            | NoiseKind::Blue2D
+            | NoiseKind::GoldenRatio2D
+            | NoiseKind::Stbn
+            | NoiseKind::StbnProgressive => SampleMode::Scalar,
             NoiseKind::StbnPairs => SampleMode::CosinePair,
             NoiseKind::WhiteVectors | NoiseKind::StbnVectors => SampleMode::Direction,
         }
@@ -177,20 +208,51 @@ impl NoiseMask {
     }
 }
 
-/// Generates every source of `kinds` at `spec`.
+/// Generates every source of `kinds` at `spec`; sources that read one mask
+/// ([`NoiseKind::mask_source`]) share a single generation.
 pub fn generate_all(
     kinds: &[NoiseKind],
     spec: &NoiseSpec,
 ) -> Result<Vec<NoiseMask>, VectorSpecError> {
-    kinds
-        .iter()
-        .map(|&kind| NoiseMask::generate(kind, spec))
-        .collect()
+    let mut masks: Vec<NoiseMask> = Vec::with_capacity(kinds.len());
+    for &kind in kinds {
+        let shared = masks
+            .iter()
+            .find(|m| m.kind.mask_source() == kind.mask_source());
+        let blob = match shared {
+            Some(mask) => mask.blob.clone(),
+            None => NoiseMask::generate(kind, spec)?.blob,
+        };
+        masks.push(NoiseMask { kind, blob });
+    }
+    Ok(masks)
+}
+
+/// The masks of the past-depth comparison, for runs of `frames` frames, in table order: white
+/// noise with one slice per frame (`max(spec.depth, frames)` deep, so it never repeats: the
+/// reference of independent samples, which a white mask read past its depth is not), then the
+/// STBN mask at `spec` read with plain `sample` ([`NoiseKind::Stbn`], repeating every `depth`
+/// frames) and progressively ([`NoiseKind::StbnProgressive`]).
+pub fn generate_past_depth(
+    spec: &NoiseSpec,
+    frames: u32,
+) -> Result<Vec<NoiseMask>, VectorSpecError> {
+    let white = NoiseSpec {
+        depth: spec.depth.max(frames),
+        ..*spec
+    };
+    let mut masks = vec![NoiseMask::generate(NoiseKind::White, &white)?];
+    masks.extend(generate_all(
+        &[NoiseKind::Stbn, NoiseKind::StbnProgressive],
+        spec,
+    )?);
+    Ok(masks)
 }
 
 /// The scalar [`Volume`] of `kind` at `spec`: [`stbn_gen::generate`] for the void-and-cluster
-/// masks ([`NoiseKind::StbnPairs`] reads the [`NoiseKind::Stbn`] mask), [`generate_baseline`] for
-/// white noise and the golden-ratio animation (all with the paper's σ 1.9 and density 0.1).
+/// masks ([`NoiseKind::StbnPairs`] and [`NoiseKind::StbnProgressive`] read the
+/// [`NoiseKind::Stbn`] mask), [`generate_baseline`] for white noise and the golden-ratio
+/// animation (all with the paper's σ 1.9 and density 0.1).
 ///
 /// Panics for the vector kinds, which have no scalar volume.
 pub fn noise_volume(kind: NoiseKind, spec: &NoiseSpec) -> Result<Volume, VectorSpecError> {
@@ -203,7 +265,9 @@ pub fn noise_volume(kind: NoiseKind, spec: &NoiseSpec) -> Result<Volume, VectorS
         generate_baseline(&spec, Observer::default())
     };
     Ok(match kind {
-        NoiseKind::Stbn | NoiseKind::StbnPairs => stbn_gen::generate(&mask, Observer::default())?,
+        NoiseKind::Stbn | NoiseKind::StbnPairs | NoiseKind::StbnProgressive => {
+            stbn_gen::generate(&mask, Observer::default())?
+        }
         NoiseKind::Blue2D => {
             let mask = mask.with_topology(EnergyTopology::Independent2D);
             stbn_gen::generate(&mask, Observer::default())?
@@ -271,6 +335,28 @@ mod tests {
     }
 
     #[test]
+    fn past_depth_white_noise_has_a_slice_per_frame() {
+        let masks = generate_past_depth(&spec(), 10).unwrap();
+        let kinds: Vec<NoiseKind> = masks.iter().map(|m| m.kind).collect();
+        let depths: Vec<u32> = masks.iter().map(|m| m.view().depth()).collect();
+        assert_eq!(
+            kinds,
+            [
+                NoiseKind::White,
+                NoiseKind::Stbn,
+                NoiseKind::StbnProgressive
+            ]
+        );
+        assert_eq!(depths, [10, 4, 4]);
+        assert_eq!(masks[1].blob, masks[2].blob);
+        // Fewer frames than the depth keep the white mask at the spec's depth.
+        assert_eq!(
+            generate_past_depth(&spec(), 3).unwrap()[0].view().depth(),
+            4
+        );
+    }
+
+    #[test]
     fn golden_ratio_frames_are_rotations_of_frame_zero() {
         let volume = noise_volume(NoiseKind::GoldenRatio2D, &spec()).unwrap();
         let n = volume.slice_pixels() as u32;
@@ -286,13 +372,23 @@ mod tests {
 
     #[test]
     fn sources_are_deterministic_and_distinct() {
-        let kinds = [NoiseKind::SCALAR.as_slice(), &NoiseKind::DIRECTIONS].concat();
+        let kinds = [
+            NoiseKind::SCALAR.as_slice(),
+            &NoiseKind::DIRECTIONS,
+            &[NoiseKind::StbnProgressive],
+        ]
+        .concat();
         let a = generate_all(&kinds, &spec()).unwrap();
         assert_eq!(a, generate_all(&kinds, &spec()).unwrap());
+        // A shared mask is the one its source generates on its own.
+        for mask in &a {
+            let alone = NoiseMask::generate(mask.kind, &spec()).unwrap();
+            assert_eq!(mask.blob, alone.blob, "{:?}", mask.kind);
+        }
         for i in 0..a.len() {
             for j in i + 1..a.len() {
-                // The pairs read the scalar STBN mask itself.
-                let same_mask = [a[i].kind, a[j].kind] == [NoiseKind::Stbn, NoiseKind::StbnPairs];
+                // The pairs and the progressive views read the masks of their sources.
+                let same_mask = a[i].kind.mask_source() == a[j].kind.mask_source();
                 assert_eq!(
                     a[i].blob == a[j].blob,
                     same_mask,

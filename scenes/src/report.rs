@@ -20,11 +20,17 @@ pub fn relative_change(
     Some((a / b - 1.0) * 100.0)
 }
 
+/// The source the tables highlight: the last spatiotemporal one in table order.
+fn highlighted(cmp: &Comparison) -> Option<NoiseKind> {
+    cmp.runs.iter().rev().map(|r| r.kind).find(|k| k.is_stbn())
+}
+
 /// A Markdown section: a heading with the scene's name, its description, one table per metric
-/// and accumulation (rows: noises; columns: frame counts), and STBN's change against each other
-/// noise at the last frame count.
+/// and accumulation (rows: noises; columns: frame counts), and the highlighted STBN source's
+/// (the last in table order) change against each other noise at the last frame count.
 pub fn markdown(cmp: &Comparison) -> String {
     let frames = cmp.frame_counts();
+    let stbn = highlighted(cmp);
     let mut out = String::new();
     let _ = writeln!(out, "### `{}` ({}×{})\n", cmp.scene, cmp.width, cmp.height);
     let _ = writeln!(out, "{}.\n", cmp.description);
@@ -49,7 +55,7 @@ pub fn markdown(cmp: &Comparison) -> String {
                     let value = cmp
                         .error(run.kind, accumulation, metric, f)
                         .unwrap_or(f64::NAN);
-                    if run.kind.is_stbn() {
+                    if Some(run.kind) == stbn {
                         let _ = write!(out, " **{value:.5}** |");
                     } else {
                         let _ = write!(out, " {value:.5} |");
@@ -60,7 +66,6 @@ pub fn markdown(cmp: &Comparison) -> String {
             out.push('\n');
         }
     }
-    let stbn = cmp.runs.iter().map(|r| r.kind).find(|k| k.is_stbn());
     if let (Some(&last), Some(stbn)) = (frames.last(), stbn) {
         let references: Vec<NoiseKind> = cmp
             .runs
@@ -99,7 +104,8 @@ pub fn markdown(cmp: &Comparison) -> String {
 }
 
 /// CSV with a header row: `scene,noise,metric,accumulation,frames,error`, one row per run,
-/// metric, accumulation and frame count.
+/// metric, accumulation and frame count (`NaN` where a metric has no value: the low band of a
+/// 1 × 1 image).
 pub fn csv(cmp: &Comparison) -> String {
     let mut out = String::from("scene,noise,metric,accumulation,frames,error\n");
     for run in &cmp.runs {
@@ -108,7 +114,7 @@ pub fn csv(cmp: &Comparison) -> String {
                 for checkpoint in &run.checkpoints {
                     let value = cmp
                         .error(run.kind, accumulation, metric, checkpoint.frames)
-                        .expect("the checkpoint exists");
+                        .unwrap_or(f64::NAN);
                     let _ = writeln!(
                         out,
                         "{},{},{},{},{},{value:.7}",
@@ -179,11 +185,35 @@ mod tests {
         assert!(md.contains("| rmse, ema | -50.0% |\n"), "{md}");
         assert!(md.contains("| blurred_rmse, mean | -50.0% |\n"), "{md}");
         let csv = csv(&cmp);
-        assert_eq!(csv.lines().count(), 1 + 2 * 2 * 2 * 2);
+        assert_eq!(csv.lines().count(), 1 + 2 * 3 * 2 * 2);
+        // A 1 × 1 image has no spatial frequency to measure.
+        assert!(
+            csv.contains("toy,stbn,error_low_band,mean,4,NaN\n"),
+            "{csv}"
+        );
+        assert!(md.contains("| error_low_band, mean | – |\n"), "{md}");
         assert!(csv.contains("toy,stbn,rmse,mean,4,0.0500000\n"), "{csv}");
         assert!(
             csv.contains("toy,stbn,blurred_rmse,mean,4,0.0500000\n"),
             "{csv}"
+        );
+    }
+
+    #[test]
+    fn the_last_stbn_source_is_highlighted() {
+        let mut cmp = comparison();
+        let mut progressive = cmp.runs[1].clone();
+        progressive.kind = NoiseKind::StbnProgressive;
+        cmp.runs.push(progressive);
+        let md = markdown(&cmp);
+        assert!(md.contains("| STBN | 0.50000 | 0.10000 |"), "{md}");
+        assert!(
+            md.contains("| STBN, progressive | **0.50000** | **0.10000** |"),
+            "{md}"
+        );
+        assert!(
+            md.contains("| metric, accumulation | vs white noise | vs STBN |"),
+            "{md}"
         );
     }
 

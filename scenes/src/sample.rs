@@ -1,9 +1,32 @@
-//! How a pixel's sample is read from a mask ([`SampleMode`]), on the CPU ([`pixel_sample`]) and
-//! in WGSL ([`wgsl_pixel_sample`]), with the same `f32` operations on both sides.
+//! How a pixel's sample is read from a mask: which slice at each frame ([`FrameOrder`]) and how
+//! its values become the sample ([`SampleMode`]), on the CPU ([`pixel_sample`]) and in WGSL
+//! ([`wgsl_pixel_sample`]), with the same `f32` operations on both sides.
 
-use stbn_runtime::{Stbn, ValueMap};
+use stbn_runtime::{OffsetStbn, Stbn, ValueMap};
 
 use crate::scene::SceneInput;
+
+/// Which mask slice frame `t` reads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum FrameOrder {
+    /// Slice `t mod depth` ([`Stbn::sample`]): the mask's sequence repeats every `depth`
+    /// frames.
+    Wrap,
+    /// The mask read through [`Stbn::progressive`]: slice `t mod depth`, shifted toroidally in
+    /// x and y by the R2 offset of pass `t / depth` (none for the first `depth` frames).
+    Progressive,
+}
+
+impl FrameOrder {
+    /// The view of `mask` that reads its frames in this order (on the GPU, its
+    /// [`stbn_runtime::gpu::MaskUniform`]).
+    pub fn view<'m>(self, mask: &'m Stbn<'_>) -> OffsetStbn<'m> {
+        match self {
+            FrameOrder::Wrap => mask.into(),
+            FrameOrder::Progressive => mask.progressive(),
+        }
+    }
+}
 
 /// How a pixel turns a mask into its sample `[f32; 4]`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -52,8 +75,15 @@ fn cosine_direction(u1: f32, u2: f32) -> vec3<f32> {
 }
 ";
 
-/// Pixel `(x, y)`'s sample at `frame` under `mode` (the mask tiles the image toroidally).
-pub fn pixel_sample(noise: &Stbn<'_>, mode: SampleMode, x: i32, y: i32, frame: u32) -> [f32; 4] {
+/// Pixel `(x, y)`'s sample at `frame` under `mode`, read through `noise` (a view of the mask,
+/// [`FrameOrder::view`]; the mask tiles the image toroidally).
+pub fn pixel_sample(
+    noise: OffsetStbn<'_>,
+    mode: SampleMode,
+    x: i32,
+    y: i32,
+    frame: u32,
+) -> [f32; 4] {
     match mode {
         SampleMode::Scalar => [noise.sample(x, y, frame), 0.0, 0.0, 0.0],
         SampleMode::CosinePair => {
@@ -67,8 +97,8 @@ pub fn pixel_sample(noise: &Stbn<'_>, mode: SampleMode, x: i32, y: i32, frame: u
 
 /// WGSL defining `fn pixel_sample(x: i32, y: i32, frame: u32) -> vec4<f32>`, the shader twin of
 /// [`pixel_sample`] for `mode` and a mask with `value_map`. It reads the bindings `noise`
-/// (`texture_3d<f32>`) and `noise_dim0` (`StbnMask`, the mask's own uniform), and for
-/// [`SampleMode::CosinePair`] `noise_dim1` (`StbnMask`, the uniform of the mask's
+/// (`texture_3d<f32>`) and `noise_dim0` (`StbnMask`, the uniform of the view), and for
+/// [`SampleMode::CosinePair`] `noise_dim1` (`StbnMask`, the uniform of the view's
 /// `dimension(1)`).
 pub fn wgsl_pixel_sample(mode: SampleMode, value_map: ValueMap) -> String {
     let body = match (mode, value_map) {

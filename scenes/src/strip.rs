@@ -1,4 +1,5 @@
-//! PNG strips: images side by side (top row) above their magnified errors (bottom row).
+//! PNG strips: images side by side (top row) above their magnified errors (bottom row), and
+//! the DFT magnitude images of the errors side by side.
 
 use std::fs::File;
 use std::io::{self, BufWriter};
@@ -39,7 +40,7 @@ pub fn write_strip(
     let n = width * height;
     assert_eq!(reference.len(), n, "reference size");
     assert!(tiles.iter().all(|t| t.len() == n), "tile size");
-    let out_w = tiles.len() * width + (tiles.len().saturating_sub(1)) * GAP;
+    let out_w = strip_width(tiles.len(), width);
     let out_h = 2 * height + GAP;
     let mut pixels = vec![GAP_LEVEL; out_w * out_h];
     for (i, tile) in tiles.iter().enumerate() {
@@ -53,14 +54,42 @@ pub fn write_strip(
             }
         }
     }
+    write_gray8(path, out_w, out_h, &pixels)
+}
+
+/// Pixels across `count` tiles of `width` pixels with [`GAP`]s between them.
+fn strip_width(count: usize, width: usize) -> usize {
+    count * width + count.saturating_sub(1) * GAP
+}
+
+/// Writes `pixels` (`width × height` 8-bit grey levels as displayed, row-major) as a PNG tagged
+/// sRGB.
+fn write_gray8(path: &Path, width: usize, height: usize, pixels: &[u8]) -> io::Result<()> {
     let file = File::create(path)?;
-    let mut encoder = png::Encoder::new(BufWriter::new(file), out_w as u32, out_h as u32);
+    let mut encoder = png::Encoder::new(BufWriter::new(file), width as u32, height as u32);
     encoder.set_color(png::ColorType::Grayscale);
     encoder.set_depth(png::BitDepth::Eight);
     encoder.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
     let mut writer = encoder.write_header().map_err(io::Error::other)?;
-    writer.write_image_data(&pixels).map_err(io::Error::other)?;
+    writer.write_image_data(pixels).map_err(io::Error::other)?;
     writer.finish().map_err(io::Error::other)
+}
+
+/// Writes an 8-bit grayscale PNG of `tiles` (each `width × height` grey levels, row-major)
+/// side by side with 4-pixel grey gaps.
+///
+/// Panics if a tile does not hold `width · height` levels.
+pub fn write_tiles(path: &Path, width: usize, height: usize, tiles: &[Vec<u8>]) -> io::Result<()> {
+    assert!(tiles.iter().all(|t| t.len() == width * height), "tile size");
+    let out_w = strip_width(tiles.len(), width);
+    let mut pixels = vec![GAP_LEVEL; out_w * height];
+    for (i, tile) in tiles.iter().enumerate() {
+        let x0 = i * (width + GAP);
+        for (y, row) in tile.chunks_exact(width).enumerate() {
+            pixels[y * out_w + x0..y * out_w + x0 + width].copy_from_slice(row);
+        }
+    }
+    write_gray8(path, out_w, height, &pixels)
 }
 
 /// Error magnification of the strips' bottom rows.
@@ -71,9 +100,21 @@ pub fn strip_file_name(accumulation: Accumulation, frames: u32) -> String {
     format!("{}_{frames:02}_frames.png", accumulation.name())
 }
 
+/// The file name of the error spectra of `accumulation` after `frames` frames.
+pub fn spectrum_file_name(accumulation: Accumulation, frames: u32) -> String {
+    format!(
+        "error_spectrum_{}_{frames:02}_frames.png",
+        accumulation.name()
+    )
+}
+
 /// Writes one strip per accumulation and checkpoint into `dir` (named by
 /// [`strip_file_name`]): the ground truth, then every run in order, above their errors
-/// magnified [`ERROR_GAIN`] times. Returns the file names.
+/// magnified [`ERROR_GAIN`] times; and per accumulation, at the last checkpoint, the centred
+/// DFT magnitude image of every run's error ([`Comparison::error_spectrum`], grey levels of
+/// [`stbn_gen::analysis::SpectrumImage::to_gray8`]: white error a flat mid-dark grey, blue
+/// error black around the centre) side by side in run order (named by
+/// [`spectrum_file_name`]). Returns the file names.
 pub fn write_strips(dir: &Path, cmp: &Comparison) -> io::Result<Vec<String>> {
     let mut names = Vec::new();
     for accumulation in Accumulation::ALL {
@@ -92,6 +133,21 @@ pub fn write_strips(dir: &Path, cmp: &Comparison) -> io::Result<Vec<String>> {
                 &cmp.ground_truth,
                 ERROR_GAIN,
             )?;
+            names.push(name);
+        }
+        if let Some(&frames) = cmp.frame_counts().last() {
+            let spectra: Vec<_> = cmp
+                .runs
+                .iter()
+                .map(|run| {
+                    cmp.error_spectrum(run.kind, accumulation, frames)
+                        .expect("every run has every checkpoint")
+                })
+                .collect();
+            let (width, height) = (spectra[0].width, spectra[0].height);
+            let tiles: Vec<Vec<u8>> = spectra.iter().map(|s| s.to_gray8()).collect();
+            let name = spectrum_file_name(accumulation, frames);
+            write_tiles(&dir.join(&name), width, height, &tiles)?;
             names.push(name);
         }
     }
@@ -132,6 +188,18 @@ mod tests {
         assert_eq!(at(3, 0), GAP_LEVEL); // gap
         assert_eq!(at(7, 1), 255); // tile 1
         assert_eq!(at(0, 6), 255); // |0 − 0.5| · 2 = 1
+        let path = dir.join("t.png");
+        write_tiles(&path, 2, 1, &[vec![1, 2], vec![3, 4], vec![5, 6]]).unwrap();
+        let decoder = png::Decoder::new(std::io::BufReader::new(File::open(&path).unwrap()));
+        let mut reader = decoder.read_info().unwrap();
+        let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+        let info = reader.next_frame(&mut buf).unwrap();
+        assert_eq!((info.width, info.height), (2 + 4 + 2 + 4 + 2, 1));
+        let gap = [GAP_LEVEL; 4];
+        assert_eq!(
+            buf[..14],
+            [[1, 2].as_slice(), &gap, &[3, 4], &gap, &[5, 6]].concat()
+        );
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

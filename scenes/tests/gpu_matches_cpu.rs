@@ -11,10 +11,13 @@ use stbn_scenes::heightfield::Heightfield;
 use stbn_scenes::image::max_abs_diff;
 use stbn_scenes::noise::{NoiseKind, NoiseMask, NoiseSpec};
 use stbn_scenes::render::render_cpu;
+use stbn_scenes::sample::{FrameOrder, SampleMode};
 use stbn_scenes::scene::Scene;
 use stbn_scenes::transparency::{AlphaMode, Transparency};
 
-const CHECKPOINTS: [u32; 3] = [1, 4, 16];
+/// Frame counts compared; 20 frames are 2.5 passes through the 8-frame masks, so the
+/// progressive source reads three epochs.
+const CHECKPOINTS: [u32; 3] = [1, 4, 20];
 
 fn vulkan() -> GpuContext {
     GpuContext::new(wgpu::Backends::VULKAN).unwrap_or_else(|e| panic!("{e}"))
@@ -34,7 +37,11 @@ fn masks(kinds: &[NoiseKind], encoding: Encoding) -> Vec<NoiseMask> {
         .collect()
 }
 
-const SCALAR: [NoiseKind; 2] = [NoiseKind::White, NoiseKind::Stbn];
+const SCALAR: [NoiseKind; 3] = [
+    NoiseKind::White,
+    NoiseKind::Stbn,
+    NoiseKind::StbnProgressive,
+];
 
 /// The largest difference between GPU and CPU EMA and mean images over every checkpoint and
 /// mask.
@@ -43,9 +50,9 @@ fn worst_difference(ctx: &GpuContext, scene: &dyn Scene, masks: &[NoiseMask]) ->
     let mut worst = 0.0f32;
     for mask in masks {
         let noise = mask.view();
-        let mode = mask.kind.sample_mode();
-        let gpu = renderer.render(&noise, mode, &CHECKPOINTS).unwrap();
-        let cpu = render_cpu(scene, &noise, mode, &CHECKPOINTS);
+        let (order, mode) = (mask.kind.frame_order(), mask.kind.sample_mode());
+        let gpu = renderer.render(&noise, order, mode, &CHECKPOINTS).unwrap();
+        let cpu = render_cpu(scene, &noise, order, mode, &CHECKPOINTS);
         assert_eq!(gpu.len(), cpu.len());
         for (g, c) in gpu.iter().zip(&cpu) {
             assert_eq!(g.frames, c.frames);
@@ -113,4 +120,22 @@ fn ao_agrees() {
         let worst = worst_difference(&ctx, &scene, &masks(&NoiseKind::DIRECTIONS, encoding));
         assert!(worst <= 1e-4, "ao {encoding:?}: {worst}");
     }
+}
+
+#[test]
+fn progressive_reads_new_values_past_the_depth_on_the_gpu() {
+    let ctx = vulkan();
+    let scene = Transparency::new(20, 13, AlphaMode::Ramp);
+    let renderer = GpuSceneRenderer::new(&ctx, &scene);
+    let mask = &masks(&[NoiseKind::Stbn], Encoding::Unorm16)[0];
+    let noise = mask.view();
+    let render = |order| {
+        renderer
+            .render(&noise, order, SampleMode::Scalar, &CHECKPOINTS)
+            .unwrap()
+    };
+    let (wrap, progressive) = (render(FrameOrder::Wrap), render(FrameOrder::Progressive));
+    // Within the first pass the two orders read the same frames; past it they do not.
+    assert_eq!(wrap[1], progressive[1]);
+    assert_ne!(wrap[2].mean, progressive[2].mean);
 }

@@ -3,7 +3,7 @@
 
 use clap::Parser;
 use stbn_scenes::ao::AmbientOcclusion;
-use stbn_scenes::cli::{Options, run};
+use stbn_scenes::cli::{Options, Study, run};
 
 /// Texels per axis of the terrain's heightfield.
 const TERRAIN_N: u32 = 128;
@@ -11,7 +11,7 @@ const TERRAIN_N: u32 = 128;
 fn main() {
     let options = Options::parse();
     let ao = AmbientOcclusion::standard(options.size, options.size, TERRAIN_N, options.seed);
-    if let Err(e) = run(&options, &[&ao]) {
+    if let Err(e) = run(&options, Study::AllSources, &[&ao]) {
         eprintln!("error: {e}");
         std::process::exit(1);
     }

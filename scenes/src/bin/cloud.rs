@@ -2,7 +2,7 @@
 //! mask). `cargo run --release -p stbn-scenes --bin cloud -- --help`
 
 use clap::Parser;
-use stbn_scenes::cli::{Options, run};
+use stbn_scenes::cli::{Options, Study, run};
 use stbn_scenes::cloud::Cloud;
 
 /// Voxels per axis of the cloud's density grid.
@@ -11,7 +11,7 @@ const GRID_N: u32 = 64;
 fn main() {
     let options = Options::parse();
     let cloud = Cloud::standard(options.size, options.size, GRID_N, options.seed);
-    if let Err(e) = run(&options, &[&cloud]) {
+    if let Err(e) = run(&options, Study::AllSources, &[&cloud]) {
         eprintln!("error: {e}");
         std::process::exit(1);
     }
