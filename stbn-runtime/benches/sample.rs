@@ -3,9 +3,13 @@
 //!
 //! Scalar masks (groups `unorm8_128x128`, `unorm16_128x128`, `f32_128x128`): `sample`,
 //! `sample` through an offset view (`offset_sample_loop`: an x/y/frame offset;
-//! `dimension_sample_loop`: an R2 dimension offset), `fill_row` (a wrapping row start),
-//! `fill_frame`, and `plain_loop`: a hand-written loop that decodes the frame's bytes straight
-//! from the payload (no wrapping, no header), the floor a general sampler is measured against.
+//! `dimension_sample_loop`: an R2 dimension offset; `progressive_sample_loop`: the
+//! `progressive()` view; `progressive_per_frame_offset_sample_loop`: its offset taken once per
+//! frame with `sample_offset_at`, then a plain offset view), `fill_row` (a wrapping row start),
+//! `fill_frame`, `offset_fill_frame` (an x/y/frame offset: rows split in two runs),
+//! `progressive_fill_frame`, and `plain_loop`: a hand-written loop that decodes the frame's
+//! bytes straight from the payload (no wrapping, no header), the floor a general sampler is
+//! measured against.
 //!
 //! Vector masks (groups `vec2_<enc>_1080p`, `vec4_<enc>_1080p`, `unitvec3_oct_<enc>_1080p`,
 //! `unitvec3_signed_<enc>_1080p`): one 1920×1080 frame per iteration, the mask tiled over it,
@@ -13,8 +17,12 @@
 //! std's `sqrt`), `hand_written_crate_decode` (octahedral only: the same loop calling
 //! `octahedral_decode`, the samplers' own numerics), `sample` (`sample_vec2` / `sample_vec3` /
 //! `sample_vec4` per pixel), `sample_vector`, `fill_vector_row` (whole rows: one period decoded,
-//! then copied), `fill_vector_row_by_width` (a mask width per call: every voxel decoded), and
-//! `sample` / `fill_vector_row` through an offset view.
+//! then copied), `fill_vector_row_by_width` (a mask width per call: every voxel decoded),
+//! `sample` / `fill_vector_row` through an offset view, and `progressive_sample` (`sample`
+//! through the `progressive()` view).
+//!
+//! The progressive benches read frame `(depth + 1) · i` at iteration `i`: every iteration is a
+//! new epoch (a new R2 offset, almost never zero) and a new slice; the others read frame `i`.
 //!
 //! `cargo bench -p stbn-runtime --bench sample -- --warm-up-time 1 --measurement-time 3`
 //! (`-- _1080p` for the vector groups alone)
@@ -88,6 +96,53 @@ fn bench_encoding(c: &mut Criterion, name: &str, encoding: Encoding) {
         b.iter(|| {
             frame = frame.wrapping_add(1);
             black_box(mask.fill_frame(black_box(frame), &mut out));
+            black_box(&out);
+        })
+    });
+    let progressive = mask.progressive();
+    group.bench_function("progressive_sample_loop", |b| {
+        b.iter(|| {
+            frame = frame.wrapping_add(1);
+            let f = black_box(frame.wrapping_mul(D + 1));
+            for y in 0..H as i32 {
+                for x in 0..W as i32 {
+                    out[(y as u32 * W + x as u32) as usize] = progressive.sample(x, y, f);
+                }
+            }
+            black_box(&out);
+        })
+    });
+    // The progressive view's offset taken once per frame: a plain offset view per frame.
+    group.bench_function("progressive_per_frame_offset_sample_loop", |b| {
+        b.iter(|| {
+            frame = frame.wrapping_add(1);
+            let f = black_box(frame.wrapping_mul(D + 1));
+            let view = mask.offset(progressive.sample_offset_at(f));
+            for y in 0..H as i32 {
+                for x in 0..W as i32 {
+                    out[(y as u32 * W + x as u32) as usize] = view.sample(x, y, f);
+                }
+            }
+            black_box(&out);
+        })
+    });
+    group.bench_function("offset_fill_frame", |b| {
+        b.iter(|| {
+            frame = frame.wrapping_add(1);
+            let view = mask.offset(black_box(SampleOffset {
+                x: 77,
+                y: -13,
+                frame: 5,
+            }));
+            black_box(view.fill_frame(black_box(frame), &mut out));
+            black_box(&out);
+        })
+    });
+    group.bench_function("progressive_fill_frame", |b| {
+        b.iter(|| {
+            frame = frame.wrapping_add(1);
+            let f = black_box(frame.wrapping_mul(D + 1));
+            black_box(progressive.fill_frame(f, &mut out));
             black_box(&out);
         })
     });
@@ -259,6 +314,15 @@ fn bench_vector_frame<V: Copy + Default + VectorOutput, S: SampleRead<V>>(
     bench_rows(&mut group, "sample", V::default(), |y, f, row: &mut [V]| {
         sample_row::<V, S>(&plain, y, f, row);
     });
+    let progressive = mask.progressive();
+    bench_rows(
+        &mut group,
+        "progressive_sample",
+        V::default(),
+        |y, f, row: &mut [V]| {
+            sample_row::<V, S>(&progressive, y, f.wrapping_mul(D + 1), row);
+        },
+    );
     let zero = mask.sample_vector(0, 0, 0);
     bench_rows(
         &mut group,

@@ -4,11 +4,13 @@
 //!
 //! Knobs ([`Knob`]): mask size and depth, σ and the kernel truncation tolerance, the vector swap
 //! budget, the encoding, the compression; and the scale checks: thread-count determinism and
-//! speed-up, and the 256×256×128 scalar / 256×256×64 vector masks against their time targets.
+//! speed-up, and the 256×256×128 scalar / 256×256×64 vector masks against their time targets;
+//! and how masks read past their depth converge (wrap, progressive, rejected schedules).
 //! Every mask uses seed 7. `--quick` runs the same code on small masks (for CI, well under a
 //! minute in a debug build); its figures are not the ones to quote.
 
 mod measure;
+mod progressive;
 mod scalar;
 mod scale;
 mod storage;
@@ -42,11 +44,14 @@ pub enum Knob {
     Threads,
     /// The largest masks against their time targets: scalar 256×256×128, Vec2 256×256×64.
     Scale,
+    /// Masks read past their depth: wrap, progressive and white noise, the rejected schedules,
+    /// N samples per pixel per frame.
+    PastDepth,
 }
 
 impl Knob {
     /// Every knob, in report order.
-    pub const ALL: [Knob; 7] = [
+    pub const ALL: [Knob; 8] = [
         Knob::Size,
         Knob::Kernel,
         Knob::Swaps,
@@ -54,9 +59,10 @@ impl Knob {
         Knob::Compression,
         Knob::Threads,
         Knob::Scale,
+        Knob::PastDepth,
     ];
 
-    /// The file stem of its section, `size` … `scale`.
+    /// The file stem of its section, `size` … `past-depth`.
     pub fn key(self) -> &'static str {
         match self {
             Knob::Size => "size",
@@ -66,6 +72,7 @@ impl Knob {
             Knob::Compression => "compression",
             Knob::Threads => "threads",
             Knob::Scale => "scale",
+            Knob::PastDepth => "past-depth",
         }
     }
 }
@@ -117,6 +124,16 @@ pub struct Plan {
     pub scale_scalar: ((u32, u32, u32), Option<f64>),
     /// Vec2 mask of the scale check and its time target in seconds.
     pub scale_vector: ((u32, u32, u32), Option<f64>),
+    /// Slice side of the past-depth masks (Unorm16 scalar, square).
+    pub past_depth_side: u32,
+    /// Depths of the past-depth masks, increasing.
+    pub past_depth_depths: Vec<u32>,
+    /// Depth of the mask the rejected schedules and the samples-per-frame rows read.
+    pub past_depth_alternatives: u32,
+    /// Frame counts the past-depth running means are measured after, increasing, `≥ 1`.
+    pub past_depth_frames: Vec<usize>,
+    /// Frame counts (of several samples each) of the samples-per-frame rows, increasing, `≥ 1`.
+    pub past_depth_sample_frames: Vec<usize>,
 }
 
 impl Plan {
@@ -144,6 +161,11 @@ impl Plan {
             threads_scalar: (128, 128, 64),
             scale_scalar: ((256, 256, 128), Some(30.0)),
             scale_vector: ((256, 256, 64), Some(300.0)),
+            past_depth_side: 64,
+            past_depth_depths: vec![16, 32, 64],
+            past_depth_alternatives: 32,
+            past_depth_frames: vec![64, 256, 1024, 4096],
+            past_depth_sample_frames: vec![16, 64, 256],
         }
     }
 
@@ -171,6 +193,11 @@ impl Plan {
             threads_scalar: (32, 32, 16),
             scale_scalar: ((64, 64, 16), None),
             scale_vector: ((32, 32, 8), None),
+            past_depth_side: 16,
+            past_depth_depths: vec![8, 16],
+            past_depth_alternatives: 8,
+            past_depth_frames: vec![16, 64],
+            past_depth_sample_frames: vec![4, 16],
         }
     }
 }
@@ -227,6 +254,7 @@ pub fn run(out: &Path, quick: bool, only: &[Knob]) -> Result<()> {
             Knob::Compression => storage::compression(&plan),
             Knob::Threads => scale::threads(&plan),
             Knob::Scale => scale::scale(&plan),
+            Knob::PastDepth => progressive::past_depth(&plan),
         }?;
         let seconds = clock.elapsed().as_secs_f64();
         let load_after = measure::load_average();

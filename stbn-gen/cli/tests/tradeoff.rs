@@ -94,6 +94,7 @@ fn quick_tradeoff_writes_every_table_and_plot_and_its_figures_hold_together() {
         "## 5. Compression",
         "## 6. One thread against two",
         "## 7. Scale targets",
+        "## 8. Past the depth",
     ] {
         assert!(report.contains(section), "{section} missing");
     }
@@ -121,8 +122,8 @@ fn quick_tradeoff_writes_every_table_and_plot_and_its_figures_hold_together() {
             panic!("unexpected link {link}");
         }
     }
-    assert_eq!(csvs, 8, "{links:?}");
-    assert_eq!(pngs, 8, "{links:?}");
+    assert_eq!(csvs, 11, "{links:?}");
+    assert_eq!(pngs, 9, "{links:?}");
     for knob in [
         "size",
         "kernel",
@@ -131,6 +132,7 @@ fn quick_tradeoff_writes_every_table_and_plot_and_its_figures_hold_together() {
         "compression",
         "threads",
         "scale",
+        "past-depth",
     ] {
         let md = fs::read_to_string(out.join(format!("{knob}.md"))).unwrap();
         assert!(
