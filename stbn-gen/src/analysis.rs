@@ -412,6 +412,28 @@ fn smallest_factor(n: usize) -> usize {
         .unwrap_or(n)
 }
 
+/// [`spatial_low_band`] of one image of any finite values, row-major `width × height`: e.g. an
+/// error image (estimate − exact), whose values are signed. Normalised power does not change
+/// under an affine map of the values, so the image is mapped onto `[0, 1]` by its minimum and
+/// maximum first (a constant image measures 0). `None` for a `1 × 1` image, and when `values`
+/// is not `width × height` finite values.
+pub fn image_low_band(width: usize, height: usize, values: &[f64]) -> Option<f64> {
+    let (min, max) = values
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
+            (lo.min(v), hi.max(v))
+        });
+    if !(min.is_finite() && max.is_finite()) {
+        return None;
+    }
+    let range = if max > min { max - min } else { 1.0 };
+    let mapped: Vec<f64> = values
+        .iter()
+        .map(|v| ((v - min) / range).clamp(0.0, 1.0))
+        .collect();
+    spatial_low_band(&Field::new(width, height, 1, &mapped).ok()?)
+}
+
 /// Mean normalised power ([module docs](self)) over the spatial low band, averaged over slices.
 ///
 /// Dimensionless, `≥ 0`: about 1 for white noise, near 0 for a mask that is blue within each
@@ -773,6 +795,23 @@ mod tests {
             let direct = (re * re + im * im) / (n as f64 * variance);
             assert!((p - direct).abs() < 1e-12, "f {f}: {p} vs {direct}");
         }
+    }
+
+    #[test]
+    fn image_low_band_is_the_low_band_of_the_image_mapped_onto_the_unit_interval() {
+        let (w, h) = (16, 8);
+        let values: Vec<f64> = (0..w * h)
+            .map(|i| ((i * 37 % 101) as f64 / 50.0 - 1.0) * 1e-3)
+            .collect();
+        let (lo, hi) = (-1e-3, 1e-3);
+        let unit: Vec<f64> = values.iter().map(|v| (v - lo) / (hi - lo)).collect();
+        let direct = spatial_low_band(&Field::new(w, h, 1, &unit).unwrap()).unwrap();
+        let mapped = image_low_band(w, h, &values).unwrap();
+        assert!((direct - mapped).abs() < 1e-9, "{direct} vs {mapped}");
+        assert_eq!(image_low_band(w, h, &vec![0.25; w * h]), Some(0.0));
+        assert_eq!(image_low_band(1, 1, &[0.5]), None);
+        assert_eq!(image_low_band(2, 1, &[0.5, f64::NAN]), None);
+        assert_eq!(image_low_band(2, 2, &[0.5]), None);
     }
 
     #[test]

@@ -372,6 +372,21 @@ impl<'a> Stbn<'a> {
     /// to the exact sum modulo its axis (not necessarily wrapped).
     #[inline(always)]
     pub(crate) fn progressive_offset(&self, o: SampleOffset, frame: u32) -> SampleOffset {
+        if self.all_pow2 {
+            // Every length a power of two: the epoch is a shift, `scale32(f)` is the top
+            // `log2(len)` bits of `f` (`f >> (32 - shift)`, in u64 so a shift of 32 is defined),
+            // and wrapping sums keep the residues. The same values as the general path below,
+            // without its divisions, multiplies and branches in a caller's pixel loop.
+            let epoch = frame >> self.z.shift;
+            let top = |step: u32, axis: Axis| {
+                (u64::from(epoch.wrapping_mul(step)) >> (32 - axis.shift)) as i32
+            };
+            return SampleOffset {
+                x: o.x.wrapping_add(top(EPOCH_STEP_X, self.x)),
+                y: o.y.wrapping_add(top(EPOCH_STEP_Y, self.y)),
+                frame: o.frame,
+            };
+        }
         let epoch = self.epoch_offset(self.z.quotient(frame));
         SampleOffset {
             x: self.x.add(o.x, epoch.x),

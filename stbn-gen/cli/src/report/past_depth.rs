@@ -7,7 +7,7 @@ use std::fmt::Write as _;
 
 use rayon::prelude::*;
 use stbn_gen::SampleSpace;
-use stbn_gen::analysis::{Field, Integrand, TestFunction, spatial_low_band};
+use stbn_gen::analysis::{Integrand, TestFunction, image_low_band};
 use stbn_runtime::{Stbn, VectorSample};
 
 use super::{Figure, Row};
@@ -138,18 +138,9 @@ fn measure(mask: &Stbn<'_>, functions: Vec<Function<'_>>) -> Result<PastDepth, S
             let mean = running_mean_of(mask, reading, window, &frames, function.exact, |s| {
                 (function.eval)(s)
             });
-            // The error of a function with values in [0, 1] is in [-1, 1]: mapped affinely to
-            // [0, 1], which leaves its normalised spectrum as it is.
-            let image: Vec<f64> = mean
-                .error
-                .iter()
-                .map(|e| ((e + 1.0) * 0.5).clamp(0.0, 1.0))
-                .collect();
-            let field =
-                Field::new(window.0, window.1, 1, &image).expect("an error image is one slice");
             let exact = mean.rmse.last().is_some_and(|&e| e < EXACT);
             ReadingCurve {
-                low_band: spatial_low_band(&field).filter(|_| !exact),
+                low_band: image_low_band(window.0, window.1, &mean.error).filter(|_| !exact),
                 rmse: mean.rmse,
             }
         })

@@ -4,7 +4,7 @@
 //! [`stbn_runtime::Stbn`], as a renderer would. Every curve is
 //! [`stbn_gen::analysis::running_mean`] of an integrand of [`Integrand::ALL`] over the values a
 //! schedule gives each pixel frame after frame, and the error image after the last count is
-//! measured with [`spatial_low_band`] ([`error_low_band`]).
+//! measured with [`image_low_band`].
 //!
 //! Schedules: `wrap` (the mask's own `sample`, repeating every `depth` frames), `progressive`
 //! (`Stbn::progressive`: R2 offsets per epoch, the chosen one), white noise, and the rejected
@@ -14,7 +14,7 @@
 use std::f64::consts::PI;
 
 use stbn_build_support::encode::encode_volume;
-use stbn_gen::analysis::{Field, Integrand, RunningMean, running_mean, spatial_low_band};
+use stbn_gen::analysis::{Integrand, RunningMean, image_low_band, running_mean};
 use stbn_gen::baselines::{golden_ratio_shift, white_noise};
 use stbn_gen::{MaskSpec, Observer};
 use stbn_runtime::{Compression, Encoding, OffsetStbn, SampleOffset, Stbn};
@@ -32,20 +32,6 @@ const SAMPLES_PER_FRAME: u32 = 4;
 fn scalar_blob(side: u32, depth: u32, seed: u64) -> Result<Vec<u8>> {
     let volume = stbn_gen::generate(&MaskSpec::new(side, side, depth, seed), Observer::default())?;
     Ok(encode_volume(&volume, Encoding::Unorm16, Compression::None))
-}
-
-/// [`spatial_low_band`] of an error image (`width × height` values in `[-1, 1]`, as
-/// [`RunningMean::error`] holds for integrands with values in `[0, 1]`): the mean normalised
-/// power of the error's lowest spatial frequencies, white noise = 1. The image is mapped to
-/// `[0, 1]` by `(e + 1) / 2` for [`Field`] (normalised power does not change under an affine map).
-/// `None` for a `1 × 1` image.
-fn error_low_band(width: usize, height: usize, error: &[f64]) -> Option<f64> {
-    let mapped: Vec<f64> = error
-        .iter()
-        .map(|e| ((e + 1.0) / 2.0).clamp(0.0, 1.0))
-        .collect();
-    let field = Field::new(width, height, 1, &mapped).expect("an error image maps into [0, 1]");
-    spatial_low_band(&field)
 }
 
 /// Fills `out` (`width × height` values, row-major) with `view`'s frame `frame` as `f64`.
@@ -451,7 +437,7 @@ pub fn past_depth(plan: &Plan) -> Result<Section> {
             let result = curve(side, frames, integrand, |t, out| {
                 schedule.fill(&mask, plan.seed, t, &mut buffers.decoded, out);
             });
-            let low_band = error_low_band(side as usize, side as usize, &result.error);
+            let low_band = image_low_band(side as usize, side as usize, &result.error);
             let mut row = vec![
                 Cell::text(mask_name.clone()),
                 Cell::text(schedule.name()),
@@ -521,7 +507,7 @@ pub fn past_depth(plan: &Plan) -> Result<Section> {
                 integrand.integral(),
                 |f, out| way.fill(&mask, plan.seed, integrand, f, &mut buffers, out),
             );
-            let low_band = error_low_band(side as usize, side as usize, &result.error);
+            let low_band = image_low_band(side as usize, side as usize, &result.error);
             let mut row = vec![Cell::text(way.name()), Cell::text(integrand.name())];
             row.extend(curve_cells(&result.rmse, low_band));
             many_table.push(row);
