@@ -95,7 +95,15 @@ impl Stbn<'_> {
     /// importance-sampled) keeps its distribution: only the position moves.
     ///
     /// What it buys, measured per pixel and for the error image against wrapping and white
-    /// noise: BENCHMARKS.md, "Past the depth"; `stbn-gen generate` reports it per mask.
+    /// noise: BENCHMARKS.md, "Past the depth"; `stbn-gen generate` reports it per mask, and the
+    /// `past_depth` scene (scenes/README.md) in a renderer.
+    ///
+    /// **Several values per pixel per frame** of the same integrand: read consecutive
+    /// progressive frames, value `i` of frame `f` being `view.sample(x, y, n * f + i)` (with
+    /// `wrapping_mul`/`wrapping_add` past `u32::MAX`). It converges at least as fast as `n`
+    /// R2 dimensions read progressively (faster in the first frames) and keeps the error blue;
+    /// keep [`dimension`](Self::dimension) for values of *different* dimensions of a sample (the
+    /// two coordinates of a lens position, a light choice), which must not be correlated.
     ///
     /// ```
     /// # use stbn_runtime::{Stbn, include_stbn};
