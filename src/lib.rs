@@ -8,7 +8,7 @@
 //! [`PackedStbn`](stbn_runtime::PackedStbn) to decode once into a buffer.
 //!
 //! ```
-//! use stbn_demo::masks::{BLUE2D_64, SCALAR_64, SCALAR_64_DEFLATE};
+//! use stbn_demo::masks::{BLUE2D_64, SCALAR_64, SCALAR_64_PALETTE};
 //!
 //! // Per-pixel, per-frame noise in (0, 1): one lookup, wrapping on all three axes.
 //! let (x, y, frame) = (100, -3, 1_000_000);
@@ -20,8 +20,8 @@
 //! let _jitter = SCALAR_64.dimension(1).sample(x, y, frame);
 //!
 //! // Compressed masks decode into a caller-provided buffer (no allocator needed).
-//! let mut buffer = vec![0u8; SCALAR_64_DEFLATE.decoded_len()];
-//! let decoded = SCALAR_64_DEFLATE.decode_into(&mut buffer).expect("embedded masks are valid");
+//! let mut buffer = vec![0u8; SCALAR_64_PALETTE.decoded_len()];
+//! let decoded = SCALAR_64_PALETTE.decode_into(&mut buffer).expect("embedded masks are valid");
 //! assert!((decoded.sample(x, y, frame) - threshold).abs() < 1.0 / 256.0);
 //!
 //! let mut buffer = vec![0u8; BLUE2D_64.decoded_len()];

@@ -2,7 +2,7 @@
 
 use stbn_build_support::encode::{encode_payload, encode_volume};
 use stbn_build_support::{Manifest, MaskEntry};
-use stbn_demo::masks::{BLUE2D_64, SCALAR_64, SCALAR_64_DEFLATE};
+use stbn_demo::masks::{BLUE2D_64, SCALAR_64, SCALAR_64_PALETTE};
 use stbn_gen::Volume;
 use stbn_runtime::{Compression, Encoding, PackedStbn, Stbn};
 
@@ -67,13 +67,13 @@ fn embedded_blobs_pass_full_validation() {
     let mut plain = SCALAR_64.header().to_bytes().to_vec();
     plain.extend_from_slice(SCALAR_64.data());
     assert!(Stbn::from_bytes(&plain).is_ok());
-    for packed in [&SCALAR_64_DEFLATE, &BLUE2D_64] {
+    for packed in [&SCALAR_64_PALETTE, &BLUE2D_64] {
         assert!(PackedStbn::from_bytes(&blob_of(packed)).is_ok());
     }
-    // Unorm16 frames of 4096 pixels hold 12 bits of information in 16: Deflate shrinks them
-    // (to 91 % of the bytes: its byte-wise Huffman codes see the two bytes of a level mixed).
-    assert_eq!(SCALAR_64_DEFLATE.header().compression, Compression::Deflate);
-    assert!(blob_of(&SCALAR_64_DEFLATE).len() * 100 < SCALAR_64_DEFLATE.decoded_len() * 92);
+    // Unorm16 frames of 4096 pixels all hold the same 4096 levels: a palette stores them once and
+    // a 12-bit index per voxel (78 % of the bytes).
+    assert_eq!(SCALAR_64_PALETTE.header().compression, Compression::Palette);
+    assert!(blob_of(&SCALAR_64_PALETTE).len() * 100 < SCALAR_64_PALETTE.decoded_len() * 79);
     // Unorm8 frames hold every level equally often, at their entropy: Deflate does not shrink
     // them, so the blob is stored uncompressed (still a `PackedStbn`, decoded by a copy).
     assert_eq!(BLUE2D_64.header().compression, Compression::None);
@@ -131,18 +131,18 @@ fn sampling_wraps_on_every_axis() {
 }
 
 #[test]
-fn deflate_mask_decodes_to_the_uncompressed_generation() {
-    let (entry, volume) = generate("scalar_64_deflate");
+fn palette_mask_decodes_to_the_uncompressed_generation() {
+    let (entry, volume) = generate("scalar_64_palette");
     assert_eq!(
         (entry.encoding, entry.compression),
-        (Encoding::Unorm16, Compression::Deflate)
+        (Encoding::Unorm16, Compression::Palette)
     );
-    let decoded = decode(&SCALAR_64_DEFLATE);
+    let decoded = decode(&SCALAR_64_PALETTE);
     assert_eq!(decoded, encode_payload(&volume, Encoding::Unorm16));
     let uncompressed = encode_volume(&volume, Encoding::Unorm16, Compression::None);
     let expected = Stbn::from_bytes(&uncompressed).unwrap();
-    let mut buffer = vec![0u8; SCALAR_64_DEFLATE.decoded_len()];
-    let view = SCALAR_64_DEFLATE.decode_into(&mut buffer).unwrap();
+    let mut buffer = vec![0u8; SCALAR_64_PALETTE.decoded_len()];
+    let view = SCALAR_64_PALETTE.decode_into(&mut buffer).unwrap();
     assert_eq!(view.header(), expected.header());
     for (x, y, z) in [(0, 0, 0), (-1, 70, 33), (12, 34, 5)] {
         assert_eq!(view.sample(x, y, z), expected.sample(x, y, z));
@@ -161,19 +161,19 @@ fn deflate_mask_decodes_to_the_uncompressed_generation() {
 
 #[test]
 fn decode_into_respects_the_caller_buffer() {
-    let len = SCALAR_64_DEFLATE.decoded_len();
+    let len = SCALAR_64_PALETTE.decoded_len();
     assert_eq!(len, 64 * 64 * 32 * 2);
     let mut short = vec![0u8; len - 1];
-    assert!(SCALAR_64_DEFLATE.decode_into(&mut short).is_err());
+    assert!(SCALAR_64_PALETTE.decode_into(&mut short).is_err());
     let mut long = vec![0xAAu8; len + 16];
-    let view = SCALAR_64_DEFLATE.decode_into(&mut long).unwrap();
+    let view = SCALAR_64_PALETTE.decode_into(&mut long).unwrap();
     assert_eq!(
         view.data().len(),
         len,
         "the view covers the decoded bytes only"
     );
     assert!(long[len..].iter().all(|&b| b == 0xAA));
-    assert_eq!(&long[..len], decode(&SCALAR_64_DEFLATE));
+    assert_eq!(&long[..len], decode(&SCALAR_64_PALETTE));
 }
 
 #[test]

@@ -247,7 +247,7 @@ fn assert_rounds_to(file: &str, what: &str, quoted: f64, derived: f64, step: f64
 }
 
 /// One row of BENCHMARKS.md's compression table: blob bytes per codec and whether the encoder
-/// stored the payload uncompressed, the Deflate decode time.
+/// stored the payload uncompressed, the Deflate and Palette decode times.
 struct Compressed {
     none: f64,
     lz4: f64,
@@ -255,6 +255,9 @@ struct Compressed {
     deflate: f64,
     deflate_stored: bool,
     deflate_decode_us: f64,
+    palette: f64,
+    palette_stored: bool,
+    palette_decode_us: f64,
 }
 
 impl Compressed {
@@ -275,6 +278,11 @@ impl Compressed {
     fn deflate_percent(&self) -> f64 {
         self.deflate / self.raw() * 100.0
     }
+
+    /// The Palette blob in percent of the raw payload.
+    fn palette_percent(&self) -> f64 {
+        self.palette / self.raw() * 100.0
+    }
 }
 
 /// BENCHMARKS.md's "Compression" table by `(mask, encoding)`, each Deflate percentage it prints
@@ -290,35 +298,50 @@ fn compression_table(benchmarks: &str) -> HashMap<(String, String), Compressed> 
                 .unwrap_or_else(|| panic!("BENCHMARKS.md, {what}: {cell:?} is not a byte count"))
         };
         let none = bytes(&row[2]);
-        let decode: Vec<&str> = row[6].split('/').collect();
+        let decode: Vec<&str> = row[7].split('/').collect();
+        let decode_us = |i: usize, codec: &str| {
+            decode
+                .get(i)
+                .and_then(|d| leading_number(d))
+                .unwrap_or_else(|| panic!("BENCHMARKS.md, {what}: no {codec} decode time"))
+        };
         let entry = Compressed {
             none,
             lz4: bytes(&row[3]),
             lz4_stored: row[3].contains("(stored)"),
             deflate: bytes(&row[4]),
             deflate_stored: row[4].contains("(stored)"),
-            deflate_decode_us: leading_number(decode[2])
-                .unwrap_or_else(|| panic!("BENCHMARKS.md, {what}: no Deflate decode time")),
+            deflate_decode_us: decode_us(2, "Deflate"),
+            palette: bytes(&row[5]),
+            palette_stored: row[5].contains("(stored)"),
+            palette_decode_us: decode_us(3, "Palette"),
         };
         for (stored, size) in [
             (entry.lz4_stored, entry.lz4),
             (entry.deflate_stored, entry.deflate),
+            (entry.palette_stored, entry.palette),
         ] {
             assert!(
                 !stored || size == none,
                 "BENCHMARKS.md, {what}: a stored blob of {size} bytes, not {none}"
             );
         }
-        if !entry.deflate_stored {
-            let printed = row[4]
+        for (codec, column, stored, percent) in [
+            ("Deflate", 4, entry.deflate_stored, entry.deflate_percent()),
+            ("Palette", 5, entry.palette_stored, entry.palette_percent()),
+        ] {
+            if stored {
+                continue;
+            }
+            let printed = row[column]
                 .split_once('(')
                 .and_then(|(_, p)| leading_number(p))
-                .unwrap_or_else(|| panic!("BENCHMARKS.md, {what}: no Deflate % of raw"));
+                .unwrap_or_else(|| panic!("BENCHMARKS.md, {what}: no {codec} % of raw"));
             assert_rounds_to(
                 "BENCHMARKS.md",
-                &format!("{what}, Deflate % of raw"),
+                &format!("{what}, {codec} % of raw"),
                 printed,
-                entry.deflate_percent(),
+                percent,
                 0.1,
             );
         }
@@ -338,17 +361,17 @@ fn compression_figures_match_the_benchmarks_table() {
     };
     let (scalar_64, scalar_128) = ("scalar 64×64×32", "scalar 128×128×64");
 
-    // The README's manifest: the Unorm16 64×64×32 mask under Deflate.
+    // The README's manifest: the Unorm16 64×64×32 mask under Palette.
     let readme = read("README.md");
     let manifest_line = readme
         .lines()
-        .find(|l| l.contains("compression: Deflate,"))
-        .expect("README.md's manifest has a Deflate mask");
+        .find(|l| l.contains("compression: Palette,"))
+        .expect("README.md's manifest has a Palette mask");
     assert_rounds_to(
         "README.md",
-        "Deflate on scalar Unorm16 64×64×32",
+        "Palette on scalar Unorm16 64×64×32",
         number_after("README.md", manifest_line, "// "),
-        row(scalar_64, "Unorm16").deflate_percent(),
+        row(scalar_64, "Unorm16").palette_percent(),
         1.0,
     );
 
@@ -361,41 +384,80 @@ fn compression_figures_match_the_benchmarks_table() {
             .expect("docs/REFERENCE.md has a compression row"),
     );
     let file = "docs/REFERENCE.md";
-    let (f32_low, f32_high) = range_after(file, &field, "`F32` values (Deflate: ");
-    let f32_percents = [scalar_64, scalar_128].map(|m| row(m, "F32").deflate_percent());
-    assert_rounds_to(
-        file,
-        "Deflate on F32, least",
-        f32_low,
-        f32_percents[0].min(f32_percents[1]),
-        1.0,
-    );
-    assert_rounds_to(
-        file,
-        "Deflate on F32, most",
-        f32_high,
-        f32_percents[0].max(f32_percents[1]),
-        1.0,
-    );
+    let f32_row = [scalar_64, scalar_128].map(|m| row(m, "F32"));
+    let f32_values = after(file, &field, "`F32` values (Palette: ");
+    for (codec, text, percent) in [
+        ("Palette", f32_values, f32_row.map(|r| r.palette_percent())),
+        (
+            "Deflate",
+            after(file, f32_values, "Deflate: "),
+            f32_row.map(|r| r.deflate_percent()),
+        ),
+    ] {
+        let (low, high) = range_after(file, text, "");
+        assert_rounds_to(
+            file,
+            &format!("{codec} on F32, least"),
+            low,
+            percent[0].min(percent[1]),
+            1.0,
+        );
+        assert_rounds_to(
+            file,
+            &format!("{codec} on F32, most"),
+            high,
+            percent[0].max(percent[1]),
+            1.0,
+        );
+    }
     let unorm16 = after(
         file,
         &field,
-        "`Unorm16` frames under 65,536 pixels (Deflate: ",
+        "`Unorm16` frames under 65,536 pixels (Palette: ",
+    );
+    let unorm16_rows = [scalar_64, scalar_128].map(|m| row(m, "Unorm16"));
+    assert_rounds_to(
+        file,
+        "Palette on Unorm16 64×64",
+        leading_number(unorm16).expect("a percentage"),
+        unorm16_rows[0].palette_percent(),
+        1.0,
     );
     assert_rounds_to(
         file,
+        "Palette on Unorm16 128×128",
+        number_after(file, unorm16, "at 64×64, "),
+        unorm16_rows[1].palette_percent(),
+        1.0,
+    );
+    let deflate = after(file, unorm16, "Deflate: ");
+    assert_rounds_to(
+        file,
         "Deflate on Unorm16 64×64",
-        leading_number(unorm16).expect("a percentage"),
-        row(scalar_64, "Unorm16").deflate_percent(),
+        leading_number(deflate).expect("a percentage"),
+        unorm16_rows[0].deflate_percent(),
         1.0,
     );
     assert_rounds_to(
         file,
         "Deflate on Unorm16 128×128",
-        number_after(file, unorm16, "at 64×64, "),
-        row(scalar_128, "Unorm16").deflate_percent(),
+        number_after(file, deflate, "%, "),
+        unorm16_rows[1].deflate_percent(),
         1.0,
     );
+    // "shrinks it most and decodes faster than Deflate", wherever both shrink.
+    assert!(field.contains("`Palette`"));
+    assert!(field.contains("shrinks it most and decodes faster than Deflate"));
+    for ((mask, encoding), entry) in &compression {
+        if !entry.palette_stored || !entry.deflate_stored {
+            assert!(
+                !entry.palette_stored
+                    && entry.palette < entry.deflate
+                    && entry.palette_decode_us < entry.deflate_decode_us,
+                "{file} says Palette shrinks most and decodes faster; {mask} {encoding} disagrees"
+            );
+        }
+    }
     assert_rounds_to(
         file,
         "Lz4's largest saving",
@@ -410,7 +472,7 @@ fn compression_figures_match_the_benchmarks_table() {
     for ((mask, encoding), entry) in &compression {
         if encoding == "Unorm8" {
             assert!(
-                entry.lz4_stored && entry.deflate_stored,
+                entry.lz4_stored && entry.deflate_stored && entry.palette_stored,
                 "{file} says Unorm8 never shrinks; BENCHMARKS.md shrinks {mask} {encoding}"
             );
         }
@@ -425,25 +487,29 @@ fn compression_figures_match_the_benchmarks_table() {
         .expect("BENCHMARKS.md chooses a mask for exact values");
     let cost = &exact[2];
     let f32_64 = row(scalar_64, "F32");
+    assert_eq!(
+        exact[1], "F32 + Palette",
+        "BENCHMARKS.md's pick for exact values"
+    );
     assert_rounds_to(
         file,
-        "F32 + Deflate, KB",
+        "F32 + Palette, KB",
         leading_number(cost).expect("KB"),
-        f32_64.deflate / 1000.0,
+        f32_64.palette / 1000.0,
         1.0,
     );
     assert_rounds_to(
         file,
-        "F32 + Deflate, % of raw",
+        "F32 + Palette, % of raw",
         number_after(file, cost, "("),
-        f32_64.deflate_percent(),
+        f32_64.palette_percent(),
         1.0,
     );
     assert_rounds_to(
         file,
-        "F32 + Deflate, decode ms",
+        "F32 + Palette, decode ms",
         number_after(file, cost, "of raw), "),
-        f32_64.deflate_decode_us / 1000.0,
+        f32_64.palette_decode_us / 1000.0,
         0.1,
     );
 }
