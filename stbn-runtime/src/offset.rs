@@ -98,6 +98,11 @@ impl Stbn<'_> {
     /// noise: BENCHMARKS.md, "Past the depth"; `stbn-gen generate` reports it per mask, and the
     /// `past_depth` scene (scenes/README.md) in a renderer.
     ///
+    /// **Speed.** Per sample, the view computes the frame's epoch offset (on power-of-two masks
+    /// a shift and two 32-bit multiplies); in a hot per-pixel loop over one frame,
+    /// `mask.offset(view.sample_offset_at(frame))` is a plain view with the same values for
+    /// every frame of that epoch and skips it. Row and frame fills compute it once.
+    ///
     /// **Several values per pixel per frame** of the same integrand: read consecutive
     /// progressive frames, value `i` of frame `f` being `view.sample(x, y, n * f + i)` (with
     /// `wrapping_mul`/`wrapping_add` past `u32::MAX`). It converges at least as fast as `n`
