@@ -89,9 +89,9 @@ mod sealed {
         const HOT: u8;
         /// The output for the decoded value `value` (unused components 0) and its pdf.
         fn from_value(value: [f32; 4], pdf: f32) -> Self;
-        /// `out` as its components in order, for outputs that are plain `f32` arrays (the
-        /// glam vectors); `None` otherwise.
-        fn components(out: &mut [Self]) -> Option<&mut [f32]>;
+        /// The components of the output's value, in order: all of a glam vector's, the four
+        /// of a [`VectorSample`](crate::VectorSample)'s `value`.
+        fn components_mut(&mut self) -> &mut [f32];
     }
 }
 
@@ -103,8 +103,8 @@ impl sealed::FromValue for Vec2 {
         Vec2::new(value[0], value[1])
     }
     #[inline(always)]
-    fn components(out: &mut [Self]) -> Option<&mut [f32]> {
-        Some(bytemuck::cast_slice_mut(out))
+    fn components_mut(&mut self) -> &mut [f32] {
+        self.as_mut()
     }
 }
 
@@ -116,8 +116,8 @@ impl sealed::FromValue for Vec3 {
         Vec3::new(value[0], value[1], value[2])
     }
     #[inline(always)]
-    fn components(out: &mut [Self]) -> Option<&mut [f32]> {
-        Some(bytemuck::cast_slice_mut(out))
+    fn components_mut(&mut self) -> &mut [f32] {
+        self.as_mut()
     }
 }
 
@@ -129,8 +129,8 @@ impl sealed::FromValue for Vec4 {
         Vec4::from_array(value)
     }
     #[inline(always)]
-    fn components(out: &mut [Self]) -> Option<&mut [f32]> {
-        Some(bytemuck::cast_slice_mut(out))
+    fn components_mut(&mut self) -> &mut [f32] {
+        self.as_mut()
     }
 }
 
@@ -145,8 +145,8 @@ impl sealed::FromValue for VectorSample {
         }
     }
     #[inline(always)]
-    fn components(_: &mut [Self]) -> Option<&mut [f32]> {
-        None
+    fn components_mut(&mut self) -> &mut [f32] {
+        self.value.as_mut()
     }
 }
 
@@ -668,8 +668,9 @@ impl<V: VectorOutput> PlanVisitor for VoxelVisitor<'_, '_, V> {
 /// block in passes: the element conversion, the values before normalisation, then (for unit
 /// values) their [`unit_scale`]s with the outputs. Identity-mapped values whose channels are the
 /// output's components (Vec2, Vec3, Vec4 masks into their own type) skip that: the element
-/// conversion writes the output's `f32`s (1080p Vec4 Unorm8 rows a mask width at a time: 2.2 →
-/// 4.0 G samples/s). With `ONE_PASS` (the AVX2 build), the other values without scaling (signed
+/// conversion writes each output's `f32`s, voxel by voxel (1080p Vec4 Unorm8 rows a mask width
+/// at a time: 2.2 → 4.0 G samples/s; converting blocks into a buffer and copying them to the
+/// outputs measured 1.3–4.7× slower than this). With `ONE_PASS` (the AVX2 build), the other values without scaling (signed
 /// maps, a pdf channel, an output of another width) take one pass instead ([`fill_unscaled`]),
 /// measured on Vec2 Unorm8 rows per voxel: 0.25 against 0.45 ms per 1080p frame in blocks;
 /// without AVX2 one pass measured 1.8 against 0.75 ms, and for unit values up to 15% slower in
@@ -714,13 +715,30 @@ impl<V: VectorOutput, const ONE_PASS: bool> PlanVisitor for RunVisitor<'_, '_, '
         let bpe = encoding.bytes_per_element();
         // The run's bytes, for the two single-loop paths (the blocks below slice their own).
         let bytes = &mask.data()[self.first * bpe..(self.first + self.out.len() * S) * bpe];
-        // Stored values kept as they are, every channel a component of the output: the run is
-        // one element conversion over its bytes, straight into the output's components.
-        if T::IDENTITY && C == S && size_of::<V>() == 4 * C {
-            if let Some(components) = V::components(self.out) {
-                decode_elements(encoding, bytes, components);
-                return;
+        // Stored values kept as they are, every channel a component of the output (a glam
+        // vector of `C` components, no pdf): each voxel's `C` elements converted straight into
+        // its output's components, one loop per encoding so that each voxel's bytes are a
+        // constant-length chunk.
+        if T::IDENTITY && C == S && !V::NEEDS_PDF && size_of::<V>() == 4 * C {
+            let out = self.out.iter_mut();
+            match encoding {
+                Encoding::Unorm8 => {
+                    for (o, q) in out.zip(bytes.chunks_exact(C)) {
+                        decode_elements(Encoding::Unorm8, q, o.components_mut());
+                    }
+                }
+                Encoding::Unorm16 => {
+                    for (o, q) in out.zip(bytes.chunks_exact(2 * C)) {
+                        decode_elements(Encoding::Unorm16, q, o.components_mut());
+                    }
+                }
+                Encoding::F32 => {
+                    for (o, q) in out.zip(bytes.chunks_exact(4 * C)) {
+                        decode_elements(Encoding::F32, q, o.components_mut());
+                    }
+                }
             }
+            return;
         }
         if !T::UNIT && ONE_PASS {
             // One loop per encoding, so that each voxel's bytes are a constant-length chunk.
