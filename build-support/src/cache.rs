@@ -551,7 +551,8 @@ fn verify_entry(
 }
 
 /// Checks that `blob` is a valid `.stbn` blob (header, length, payload CRC) describing exactly
-/// the mask `recipe`, `encoding` and `compression` produce.
+/// the mask `recipe`, `encoding` and `compression` produce: stored with `compression`, or
+/// uncompressed where the encoder dropped a codec that did not shrink the payload.
 fn verify(
     blob: &[u8],
     recipe: &Recipe,
@@ -572,11 +573,17 @@ fn verify(
             layout.0, layout.1
         )
     };
+    // The encoder stores a payload uncompressed when the codec does not shrink it.
+    let stored = if h.compression.is_none() {
+        compression
+    } else {
+        h.compression
+    };
     let found = describe(
         (h.width, h.height, h.depth),
         h.channels,
         h.encoding,
-        h.compression,
+        stored,
         (h.space, h.value_map),
     );
     let expected = describe(
@@ -895,6 +902,34 @@ mod tests {
             let mode = std::fs::metadata(&path).unwrap().permissions().mode();
             assert_eq!(mode & 0o444, 0o444, "{mode:o}");
         }
+    }
+
+    #[test]
+    fn a_dropped_codec_is_a_cache_hit_on_the_next_fetch() {
+        // Deflate does not shrink an 8-bit frame: the encoder stores it uncompressed, and the
+        // next fetch must take that entry, not regenerate it as invalid.
+        let dir = tempfile::tempdir().unwrap();
+        let cache = Cache::new(dir.path());
+        let spec = Recipe::VoidAndCluster(MaskSpec::new(16, 16, 4, 3));
+        let first = cache
+            .fetch(&spec, Encoding::Unorm8, Compression::Deflate)
+            .unwrap();
+        assert!(first.warnings.is_empty(), "{:?}", first.warnings);
+        assert!(
+            PackedStbn::from_bytes(&first.blob)
+                .unwrap()
+                .header()
+                .compression
+                .is_none()
+        );
+        let second = cache
+            .fetch(&spec, Encoding::Unorm8, Compression::Deflate)
+            .unwrap();
+        assert_eq!(second.status, CacheStatus::Hit);
+        assert!(second.warnings.is_empty(), "{:?}", second.warnings);
+        assert_eq!(second.blob, first.blob);
+        // A stored compressed blob still has to carry the requested codec.
+        assert!(verify(&first.blob, &spec, Encoding::Unorm16, Compression::Deflate).is_err());
     }
 
     #[test]
