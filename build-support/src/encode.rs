@@ -83,7 +83,7 @@ pub fn encode_payload(volume: &Volume, encoding: Encoding) -> Vec<u8> {
 ///
 /// Compression: [`Compression::Lz4`] is the LZ4 *block* format (no size prefix),
 /// [`Compression::Deflate`] raw RFC 1951 at level [`DEFLATE_LEVEL`], [`Compression::Palette`] the
-/// sorted distinct voxels and a bit-packed index per voxel ([`palette`]). The output is
+/// sorted distinct voxels and a bit-packed index per voxel. The output is
 /// deterministic.
 ///
 /// # Panics

@@ -2,6 +2,7 @@
 //! progressively past its depth.
 
 use crate::Stbn;
+use crate::sampler::{EPOCH_STEP_X, EPOCH_STEP_Y};
 
 /// Integer offset added to a sample position before wrapping.
 ///
@@ -58,8 +59,24 @@ pub struct OffsetStbn<'m> {
     pub(crate) mask: &'m Stbn<'m>,
     /// As given: each component is wrapped when sampling.
     pub(crate) offset: SampleOffset,
-    /// Frames past the depth read the mask at the epoch's offset ([`Stbn::progressive`]).
-    pub(crate) progressive: bool,
+    /// How frames past the depth are read ([`Stbn::progressive`]).
+    pub(crate) epochs: Epochs,
+}
+
+/// How a view reads frames past the mask's depth.
+///
+/// The power-of-two case carries its shifts in the view itself, so the epoch offset of a
+/// sample is a function of the view's own fields and the frame: in a caller's pixel loop over
+/// one frame it depends on nothing the loop writes, and the compiler can compute it once.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Epochs {
+    /// Not progressive: every frame at the view's offset.
+    Off,
+    /// Progressive, every axis a power of two: epoch `frame >> z`, offsets the top bits of the
+    /// 0.32 products (`>> x`, `>> y`, each `32 - log2(length)`, in `0..=32`).
+    Pow2 { z: u8, x: u8, y: u8 },
+    /// Progressive, some axis not a power of two: [`Stbn::progressive_offset`].
+    General,
 }
 
 impl<'m, 'a: 'm> From<&'m Stbn<'a>> for OffsetStbn<'m> {
@@ -76,7 +93,7 @@ impl Stbn<'_> {
         OffsetStbn {
             mask: self,
             offset,
-            progressive: false,
+            epochs: Epochs::Off,
         }
     }
 
@@ -98,10 +115,12 @@ impl Stbn<'_> {
     /// noise: BENCHMARKS.md, "Past the depth"; `stbn-gen generate` reports it per mask, and the
     /// `past_depth` scene (scenes/README.md) in a renderer.
     ///
-    /// **Speed.** Per sample, the view computes the frame's epoch offset (on power-of-two masks
-    /// a shift and two 32-bit multiplies); in a hot per-pixel loop over one frame,
-    /// `mask.offset(view.sample_offset_at(frame))` is a plain view with the same values for
-    /// every frame of that epoch and skips it. Row and frame fills compute it once.
+    /// **Speed.** On a mask whose sizes are powers of two the view carries its epoch shifts, so
+    /// the frame's epoch offset (a shift and two 32-bit multiplies) depends only on the view and
+    /// the frame and leaves a pixel loop: per sample it reads as fast as the mask itself
+    /// (BENCHMARKS.md, "Runtime sampling"). On other sizes it is computed from the mask's axes per
+    /// sample; there, `mask.offset(view.sample_offset_at(frame))` is a plain view with the same
+    /// values for every frame of that epoch. Row and frame fills compute it once.
     ///
     /// **Several values per pixel per frame** of the same integrand: read consecutive
     /// progressive frames, value `i` of frame `f` being `view.sample(x, y, n * f + i)` (with
@@ -154,7 +173,7 @@ impl<'m> OffsetStbn<'m> {
     /// this view's offset.
     pub const fn progressive(self) -> Self {
         Self {
-            progressive: true,
+            epochs: self.mask.epochs(),
             ..self
         }
     }
@@ -162,7 +181,7 @@ impl<'m> OffsetStbn<'m> {
     /// Whether this view is progressive ([`progressive`](Self::progressive)).
     #[must_use]
     pub const fn is_progressive(&self) -> bool {
-        self.progressive
+        !matches!(self.epochs, Epochs::Off)
     }
 
     /// This view shifted further by the offset of sample dimension `dimension` (see
@@ -193,10 +212,21 @@ impl<'m> OffsetStbn<'m> {
     /// The offset to sample `frame` at, not necessarily wrapped.
     #[inline(always)]
     pub(crate) fn offset_at(&self, frame: u32) -> SampleOffset {
-        if self.progressive {
-            self.mask.progressive_offset(self.offset, frame)
-        } else {
-            self.offset
+        match self.epochs {
+            Epochs::Off => self.offset,
+            Epochs::Pow2 { z, x, y } => {
+                // Every length divides 2^32: wrapping sums keep the residues, and `scale32`
+                // of a power-of-two length is the fraction's top bits (see `epoch_offset`).
+                let epoch = frame >> z;
+                let top =
+                    |step: u32, shift: u8| (u64::from(epoch.wrapping_mul(step)) >> shift) as i32;
+                SampleOffset {
+                    x: self.offset.x.wrapping_add(top(EPOCH_STEP_X, x)),
+                    y: self.offset.y.wrapping_add(top(EPOCH_STEP_Y, y)),
+                    frame: self.offset.frame,
+                }
+            }
+            Epochs::General => self.mask.progressive_offset(self.offset, frame),
         }
     }
 

@@ -2,6 +2,7 @@
 
 use core::fmt;
 
+use crate::offset::Epochs;
 use crate::vector::VectorPlan;
 use crate::{Encoding, Error, MaskHeader, PackedStbn, SampleOffset};
 
@@ -367,26 +368,26 @@ impl<'a> Stbn<'a> {
         }
     }
 
+    /// How a progressive view of this mask computes its epochs: from shifts it carries when every
+    /// axis is a power of two, through [`progressive_offset`](Self::progressive_offset) otherwise.
+    pub(crate) const fn epochs(&self) -> Epochs {
+        if self.all_pow2 {
+            // Each shift is at most 31, so `32 - shift` is in 1..=32 and every value fits in u8.
+            Epochs::Pow2 {
+                z: self.z.shift as u8,
+                x: (32 - self.x.shift) as u8,
+                y: (32 - self.y.shift) as u8,
+            }
+        } else {
+            Epochs::General
+        }
+    }
+
     /// The offset a progressive view with offset `o` applies at `frame`: `o` plus the
     /// [`epoch_offset`](Self::epoch_offset) of epoch `frame / depth`, each component congruent
     /// to the exact sum modulo its axis (not necessarily wrapped).
     #[inline(always)]
     pub(crate) fn progressive_offset(&self, o: SampleOffset, frame: u32) -> SampleOffset {
-        if self.all_pow2 {
-            // Every length a power of two: the epoch is a shift, `scale32(f)` is the top
-            // `log2(len)` bits of `f` (`f >> (32 - shift)`, in u64 so a shift of 32 is defined),
-            // and wrapping sums keep the residues. The same values as the general path below,
-            // without its divisions, multiplies and branches in a caller's pixel loop.
-            let epoch = frame >> self.z.shift;
-            let top = |step: u32, axis: Axis| {
-                (u64::from(epoch.wrapping_mul(step)) >> (32 - axis.shift)) as i32
-            };
-            return SampleOffset {
-                x: o.x.wrapping_add(top(EPOCH_STEP_X, self.x)),
-                y: o.y.wrapping_add(top(EPOCH_STEP_Y, self.y)),
-                frame: o.frame,
-            };
-        }
         let epoch = self.epoch_offset(self.z.quotient(frame));
         SampleOffset {
             x: self.x.add(o.x, epoch.x),
