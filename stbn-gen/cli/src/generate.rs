@@ -168,6 +168,16 @@ pub fn run(
             (OutputFormat::Stbn, _) => {
                 let path = dir.join(format!("{name}.stbn"));
                 fs::write(&path, &blob).map_err(|e| format!("writing {}: {e}", path.display()))?;
+                if stbn_build_support::encode::stored_uncompressed(&blob, entry.compression) {
+                    errln!(
+                        "warning: mask {:?}: `compression: {:?}` does not make this mask \
+                         smaller, so {name}.stbn is written uncompressed ({} bytes); set \
+                         `compression: None` to say so in the manifest",
+                        name,
+                        entry.compression,
+                        blob.len()
+                    );
+                }
             }
         }
         // Both families are measured on their generated values: scalar masks as one field,

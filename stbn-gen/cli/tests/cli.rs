@@ -373,6 +373,25 @@ fn stbn_blobs_are_the_bytes_build_support_embeds() {
     }
     let report = fs::read_to_string(out.join("report.md")).unwrap();
     assert!(report.contains("`.stbn` blobs `<name>.stbn`"), "{report}");
+    // A codec that does not shrink a mask is dropped, and said so: never a silent no-op.
+    let stderr = text(&output.stderr);
+    let mut dropped = 0;
+    for (name, codec) in [
+        ("blue2d_lz4", "Lz4"),
+        ("white_deflate", "Deflate"),
+        ("fa_vec2", "Lz4"),
+    ] {
+        let blob = fs::read(out.join(format!("{name}.stbn"))).unwrap();
+        let header = stbn_runtime::MaskHeader::parse(&blob).unwrap();
+        let warning = format!("warning: mask \"{name}\": `compression: {codec}` does not make");
+        assert_eq!(
+            header.compression.is_none(),
+            stderr.contains(&warning),
+            "{name}: {stderr}"
+        );
+        dropped += usize::from(header.compression.is_none());
+    }
+    assert!(dropped > 0, "no codec was dropped: the check above tested nothing");
 }
 
 /// The blobs stbn-runtime's doctests and tests embed with `include_stbn!`: regenerating each from
