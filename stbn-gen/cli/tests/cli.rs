@@ -391,7 +391,10 @@ fn stbn_blobs_are_the_bytes_build_support_embeds() {
         );
         dropped += usize::from(header.compression.is_none());
     }
-    assert!(dropped > 0, "no codec was dropped: the check above tested nothing");
+    assert!(
+        dropped > 0,
+        "no codec was dropped: the check above tested nothing"
+    );
 }
 
 /// The blobs stbn-runtime's doctests and tests embed with `include_stbn!`: regenerating each from

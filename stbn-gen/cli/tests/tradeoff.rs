@@ -260,11 +260,12 @@ fn quick_tradeoff_writes_every_table_and_plot_and_its_figures_hold_together() {
     assert!(scale.numbers("estimate_bytes").iter().all(|&b| b > 0.0));
 }
 
-#[test]
-fn only_runs_the_named_knobs() {
+/// `stbn-gen tradeoff --quick --only <knobs>` into a fresh folder, which must succeed: the
+/// folder and its `tradeoff.md`.
+fn quick_only(knobs: &str) -> (tempfile::TempDir, String) {
     let dir = tempfile::tempdir().unwrap();
     let output = Command::new(env!("CARGO_BIN_EXE_stbn-gen"))
-        .args(["tradeoff", "--quick", "--only", "threads,size", "--out"])
+        .args(["tradeoff", "--quick", "--only", knobs, "--out"])
         .arg(dir.path())
         .output()
         .expect("the binary runs");
@@ -274,6 +275,111 @@ fn only_runs_the_named_knobs() {
         String::from_utf8_lossy(&output.stderr)
     );
     let report = fs::read_to_string(dir.path().join("tradeoff.md")).unwrap();
+    (dir, report)
+}
+
+/// `--only past-depth`: the section's three tables hold every row, and the relations that must
+/// hold between their figures do.
+#[test]
+fn quick_past_depth_measures_every_schedule_and_progressive_beats_wrap() {
+    let (dir, report) = quick_only("past-depth");
+    assert!(report.contains("knobs: past-depth)"), "{report}");
+    assert!(report.contains("## 8. Past the depth"), "{report}");
+    assert!(!report.contains("## 1."));
+    for file in ["past-depth.md", "past-depth.png"] {
+        assert!(dir.path().join(file).exists(), "{file}");
+    }
+
+    // Quick plan: 16×16 masks of 8 and 16 frames, counts 16 and 64.
+    let table = Csv::read(&dir.path().join("past-depth.csv"));
+    let rows = &table.rows;
+    let (mask, schedule, integrand) = (
+        table.column("mask"),
+        table.column("schedule"),
+        table.column("integrand"),
+    );
+    let last = table.column("rmse_64_frames");
+    let band = table.column("error_low_band");
+    table.column("rmse_16_frames");
+    // White noise once, then wrap and progressive per depth, each on three integrands.
+    assert_eq!(rows.len(), 3 * (1 + 2 * 2));
+    let rmse = |m: &str, s: &str, i: &str| -> f64 {
+        let row = rows
+            .iter()
+            .find(|r| r[mask] == m && r[schedule] == s && r[integrand] == i)
+            .unwrap_or_else(|| panic!("no row {m} {s} {i}"));
+        row[last].parse().unwrap()
+    };
+    for i in ["ramp", "step", "sine"] {
+        for m in ["16×16×8", "16×16×16"] {
+            let wrap = rmse(m, "wrap (sample)", i);
+            let progressive = rmse(m, "progressive (R2 epochs)", i);
+            // 64 frames wrap an 8- or 16-frame mask 4 to 8 times: its error stays where it was
+            // after `depth` frames, while progressive reads keep converging.
+            assert!(progressive < wrap, "{m} {i}: {progressive} vs {wrap}");
+            assert!(progressive > 0.0);
+        }
+        assert!(rmse("no mask", "white noise", i) > 0.0);
+    }
+    for row in rows {
+        let b: f64 = row[band].parse().unwrap();
+        assert!(b.is_finite() && b >= 0.0, "{row:?}");
+    }
+
+    // The rejected schedules on the 8-frame mask, beside white noise, wrap and progressive, on
+    // the asymmetric integrands.
+    let table = Csv::read(&dir.path().join("past-depth_schedules.csv"));
+    let rows = &table.rows;
+    let schedule = table.column("schedule");
+    let mut names: Vec<&str> = rows.iter().map(|r| r[schedule].as_str()).collect();
+    names.dedup();
+    assert_eq!(
+        names,
+        [
+            "white noise",
+            "wrap (sample)",
+            "progressive (R2 epochs)",
+            "CP golden-ratio shift per epoch",
+            "CP van der Corput shift",
+            "R2 + van der Corput shift",
+            "sunflower (local) offsets",
+            "2×2 clusters of R2 offsets",
+            "R2 + antithetic pairs",
+        ]
+    );
+    assert_eq!(rows.len(), 9 * 3);
+    let integrand = table.column("integrand");
+    assert_eq!(
+        rows[..3]
+            .iter()
+            .map(|r| r[integrand].as_str())
+            .collect::<Vec<_>>(),
+        ["step 0.37", "x²", "sin²(πx)"]
+    );
+
+    // Four samples per frame, after 4 and 16 frames.
+    let table = Csv::read(&dir.path().join("past-depth_samples.csv"));
+    let rows = &table.rows;
+    table.column("rmse_4_frames");
+    table.column("rmse_16_frames");
+    let samples = table.column("samples");
+    let mut ways: Vec<&str> = rows.iter().map(|r| r[samples].as_str()).collect();
+    ways.dedup();
+    assert_eq!(
+        ways,
+        [
+            "consecutive progressive frames",
+            "R2 dimensions (progressive)",
+            "R2 dimensions (wrap)",
+            "white noise",
+        ]
+    );
+    assert_eq!(rows.len(), 4 * 3);
+}
+
+#[test]
+fn only_runs_the_named_knobs() {
+    let (dir, report) = quick_only("threads,size");
     assert!(report.contains("knobs: size, threads)"), "{report}");
     assert!(!report.contains("## 3."));
     assert!(!dir.path().join("swaps.csv").exists());
