@@ -128,6 +128,16 @@ step "cargo package (the published crates build from their .crate files alone)"
 # Each .crate is built as a workspace of its own, in this target directory: with the workspace's
 # debug level for dependencies, it reuses the dependencies the test step built where their
 # features agree.
+# cargo unpacks each .crate from its temporary registry (target/package/tmp-registry) into
+# $CARGO_HOME/registry/src/-<hash of that path>/ and reuses an unpacked copy that is already there,
+# whatever the .crate now holds: a checkout at a path packaged before would verify the old sources.
+# Only unpacked copies of this workspace's crates from such path registries are removed (cargo
+# unpacks them again from the .crate); the crates.io copies and everything else stay.
+for unpacked in "${CARGO_HOME:-$HOME/.cargo}"/registry/src/-*/stbn-{runtime,gen,gen-cli,build-support}-[0-9]*; do
+    if [ -e "$unpacked/.cargo-ok" ]; then
+        rm -rf -- "$unpacked"
+    fi
+done
 quietly cargo package --allow-dirty --workspace --exclude stbn-demo --exclude stbn-scenes \
     --config 'profile.dev.package."*".debug = false'
 
