@@ -533,7 +533,12 @@ fn render(chart: &Chart, text: bool) -> std::result::Result<Vec<u8>, Box<dyn std
             for &x in x_grid.iter().filter(|&&x| chart.x.labelled(x)) {
                 let (px, py) = plot.backend_coord(&(chart.x.coordinate(x), y0));
                 let style = font.pos(Pos::new(HPos::Center, VPos::Top));
-                root.draw(&Text::new(chart.x.tick(x), (px, py + 6), style))?;
+                let tick = chart.x.tick(x);
+                // A label centred on a line at the right edge would run past the image: it
+                // moves left just enough to fit, so the last decade stays readable.
+                let (width, _) = root.estimate_text_size(&tick, &style)?;
+                let px = px.min(SIZE.0 as i32 - 3 - (width as i32 + 1) / 2);
+                root.draw(&Text::new(tick, (px, py + 6), style))?;
             }
             for &y in y_grid.iter().filter(|&&y| chart.y.labelled(y)) {
                 let (px, py) = plot.backend_coord(&(x0, chart.y.coordinate(y)));
@@ -651,6 +656,33 @@ mod tests {
         assert!(
             dark(&labelled, SIZE.1 - 40..SIZE.1 - MARGIN),
             "no tick labels or axis title"
+        );
+    }
+
+    #[test]
+    fn the_last_x_tick_label_fits_in_the_image() {
+        if !font_available() {
+            eprintln!("no font found (set STBN_PLOT_FONT): tick label placement is untested");
+            return;
+        }
+        // The x axis ends on a labelled decade (1000) at the plot's right edge, MARGIN pixels
+        // from the image's: centred there, its label would run past the image.
+        let mut chart = marked_chart(true);
+        chart.series[0].points = vec![(1.0, 0.5), (1000.0, 0.25)];
+        chart.series[0].labels.clear();
+        let pixels = render(&chart, true).unwrap();
+        // The tick labels sit in the 44 pixels below the plot.
+        let bottom = SIZE.1 - MARGIN - 44;
+        let dark = |x: u32| {
+            (bottom + 2..bottom + 24).any(|y| pixel(&pixels, x, y).iter().all(|&c| c < 128))
+        };
+        assert!(
+            !dark(SIZE.0 - 1) && !dark(SIZE.0 - 2),
+            "a label reaches the image's edge"
+        );
+        assert!(
+            (SIZE.0 - 40..SIZE.0 - 2).any(dark),
+            "no label under the last decade"
         );
     }
 
