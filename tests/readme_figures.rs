@@ -740,3 +740,19 @@ fn speeds_times_and_memory_match_the_benchmarks_tables() {
         0.1,
     );
 }
+
+/// BENCHMARKS.md's opening line names the generator and encoder versions its figures are for:
+/// the current ones (a version bump without re-measuring, or without updating the line, fails).
+#[test]
+fn benchmarks_name_the_current_versions() {
+    let benchmarks = read("BENCHMARKS.md");
+    let quote = format!(
+        "Figures for `GENERATOR_VERSION` {}, `ENCODER_VERSION` {},",
+        stbn_gen::GENERATOR_VERSION,
+        stbn_build_support::encode::ENCODER_VERSION
+    );
+    assert!(
+        benchmarks.contains(&quote),
+        "BENCHMARKS.md does not open with {quote:?}"
+    );
+}
