@@ -430,6 +430,19 @@ struct Figure {
     axes: &'static str,
 }
 
+impl Figure {
+    /// The figure in a report section: the chart's caption, the axes, and the image.
+    fn markdown(&self) -> String {
+        format!(
+            "\n{} {}\n\n![{}]({PLOT_DIR}/{})\n",
+            self.chart.caption(),
+            self.axes,
+            self.chart.title.replace(['[', ']'], "_"),
+            self.file
+        )
+    }
+}
+
 /// Every plot of the report. Series `i` is `rows[i]`.
 fn figures(rows: &[Row]) -> Vec<Figure> {
     let plot = |title: &str, x, y, legend, points: Vec<Vec<(f64, f64)>>, reference| Chart {

@@ -258,14 +258,8 @@ pub fn section(text: &mut String, rows: &[Row]) {
             bands.join("; ")
         );
     }
-    if let Some(Figure { file, chart, axes }) = figure(rows) {
-        let _ = write!(
-            text,
-            "\n{} {axes}\n\n![{title}]({dir}/{file})\n",
-            chart.caption(),
-            title = chart.title.replace(['[', ']'], "_"),
-            dir = super::PLOT_DIR,
-        );
+    if let Some(figure) = figure(rows) {
+        text.push_str(&figure.markdown());
     }
 }
 

@@ -380,13 +380,7 @@ pub fn section(text: &mut String, rows: &[Row]) {
         }
     }
     text.push_str(&table.markdown());
-    for Figure { file, chart, axes } in figures(rows) {
-        let _ = write!(
-            text,
-            "\n{} {axes}\n\n![{title}]({dir}/{file})\n",
-            chart.caption(),
-            title = chart.title.replace(['[', ']'], "_"),
-            dir = super::PLOT_DIR,
-        );
+    for figure in figures(rows) {
+        text.push_str(&figure.markdown());
     }
 }
