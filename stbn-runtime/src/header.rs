@@ -63,11 +63,11 @@ pub enum Compression {
     Deflate = 2,
     /// The distinct voxels once, then one index per voxel: a little-endian `u32` palette length
     /// `P` (`1 ≤ P ≤` voxel count), the `P` distinct voxels (each `channels × bytes_per_element`
-    /// bytes, as decoded), then each voxel's palette index in `max(1, ⌈log2 P⌉)` bits, packed
-    /// least significant bit first into bytes in voxel order, the last byte's unused bits 0.
-    /// Every frame of a scalar mask holds the same `width × height` levels, and every frame of a
-    /// vector mask the same stratified set, so the indices need `log2(width × height)` bits where
-    /// the data stores 16 or 32 per element.
+    /// bytes, as decoded) in strictly ascending byte order, then each voxel's palette index in
+    /// `max(1, ⌈log2 P⌉)` bits, packed least significant bit first into bytes in voxel order, the
+    /// last byte's unused bits 0. Every frame of a scalar mask holds the same `width × height`
+    /// levels, so the indices need `log2(width × height)` bits where the data stores 16 or 32;
+    /// vector masks, whose voxels are nearly all distinct, do not shrink.
     Palette = 3,
 }
 

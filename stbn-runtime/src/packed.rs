@@ -248,8 +248,10 @@ fn inflate_into(payload: &[u8], out: &mut [u8]) -> Result<(), Error> {
 
 /// Decodes a [`Compression::Palette`] payload into exactly `out.len()` bytes of
 /// `voxel_bytes`-byte voxels. Refuses (as [`Error::Decompress`]) a palette length of 0 or above
-/// the voxel count, a payload of any length but the one the palette length implies, an index at
-/// or beyond the palette, and non-zero padding bits: each decoded mask has one encoding.
+/// the voxel count, a payload of any length but the one the palette length implies, entries not
+/// in strictly ascending byte order (so no duplicates), an index at or beyond the palette, and
+/// non-zero padding bits. An entry no index uses is not detected (that needs memory per entry,
+/// and the decoder allocates none); the decoded values are checked like any others.
 fn unpalette_into(payload: &[u8], voxel_bytes: usize, out: &mut [u8]) -> Result<(), Error> {
     let voxels = out.len() / voxel_bytes;
     let Some((count, rest)) = payload.split_first_chunk::<4>() else {
@@ -268,6 +270,10 @@ fn unpalette_into(payload: &[u8], voxel_bytes: usize, out: &mut [u8]) -> Result<
         return Err(Error::Decompress);
     }
     let (palette, indices) = rest.split_at(palette_len);
+    let entries = palette.chunks_exact(voxel_bytes);
+    if entries.clone().zip(entries.skip(1)).any(|(a, b)| a >= b) {
+        return Err(Error::Decompress);
+    }
     let bits = Bits::new(indices, bits);
     // The common voxel sizes get a loop whose copies are fixed-size moves.
     match voxel_bytes {

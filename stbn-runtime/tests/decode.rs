@@ -317,7 +317,22 @@ fn malformed_palettes_are_refused() {
         decode(&palette_blob(h, 3, &palette, &good)).unwrap(),
         [10, 20, 30, 10, 20, 30, 10, 20]
     );
-    let bad: [(&str, Vec<u8>); 6] = [
+    let bad: [(&str, Vec<u8>); 9] = [
+        ("a repeated entry", palette_blob(h, 3, &[10, 10, 30], &good)),
+        (
+            "entries out of order",
+            palette_blob(h, 3, &[20, 10, 30], &good),
+        ),
+        (
+            "two-byte entries out of order in their first byte",
+            // 4 one-bit indices into 2 Unorm16 voxels: (1, 0) sorts after (0, 1).
+            palette_blob(
+                header(4, 1, 1, 1, Encoding::Unorm16),
+                2,
+                &[1, 0, 0, 1],
+                &[0b1010],
+            ),
+        ),
         (
             "empty palette",
             palette_blob(h, 0, &[10, 20, 30, 40, 50, 60, 70], &[0; 2]),
