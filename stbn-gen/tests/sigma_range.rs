@@ -443,6 +443,51 @@ fn filter_adapted_sigmas_are_refused_or_lower_the_energy() {
     }
 }
 
+/// Box sizes and binomial orders, on a square and an oblong slice: each is refused naming
+/// `spatial_filter` and its range (a box a whole number of periods long on both axes, a
+/// binomial whose σ passes half the slice: both fold flat) or keeps swaps that lower the energy.
+#[test]
+fn filter_adapted_box_and_binomial_sizes_are_refused_or_lower_the_energy() {
+    let boxes = (0..=40).chain([64, 65, SpatialFilter::MAX_SIZE, SpatialFilter::MAX_SIZE + 1]);
+    let orders = (0..=20).chain([63, 64, 65, 100, 256, 257]);
+    let filters: Vec<SpatialFilter> = boxes
+        .map(|size| SpatialFilter::Box { size })
+        .chain(orders.map(|order| SpatialFilter::Binomial { order }))
+        .collect();
+    for (w, h) in [(8, 8), (16, 8)] {
+        for &filter in &filters {
+            let spec = FilterAdaptedSpec::new(w, h, 4, 3)
+                .with_filters(filter, TemporalFilter::DEFAULT, FilterCombination::Product)
+                .with_swaps_per_pixel(2.0);
+            let mut trace = EnergyTrace::default();
+            match generate_filter_adapted(&spec, Observer::default().with_trace(&mut trace)) {
+                Err(e) => assert_refusal(&e.to_string(), "spatial_filter", f64::NAN),
+                Ok(_) => {
+                    let (first, last) = (trace.points[0], *trace.points.last().unwrap());
+                    assert!(
+                        last.swaps_accepted > 0 && last.energy < first.energy,
+                        "{w}×{h}, {filter}: {} swaps kept, energy {} → {}",
+                        last.swaps_accepted,
+                        first.energy,
+                        last.energy
+                    );
+                }
+            }
+        }
+    }
+    // The bounds themselves: a box a period long on one axis only, and the widest binomial.
+    let accepted = |w, h, filter| {
+        FilterAdaptedSpec::new(w, h, 4, 3)
+            .with_filters(filter, TemporalFilter::DEFAULT, FilterCombination::Product)
+            .validate()
+            .is_ok()
+    };
+    assert!(accepted(16, 8, SpatialFilter::Box { size: 8 }));
+    assert!(!accepted(16, 8, SpatialFilter::Box { size: 16 }));
+    assert!(accepted(8, 8, SpatialFilter::Binomial { order: 64 }));
+    assert!(!accepted(8, 8, SpatialFilter::Binomial { order: 65 }));
+}
+
 /// σ far beyond the mask would cost a footprint of the whole slice per pixel for white noise; it
 /// is refused before any work.
 #[test]

@@ -45,14 +45,16 @@ pub enum SpatialFilter {
         sigma: f64,
     },
     /// A box of `size × size` pixels (`size` in `1..=`[`SpatialFilter::MAX_SIZE`]), FAST's
-    /// `Box <Size>`.
+    /// `Box <Size>`. A mask refuses a size that is a multiple of both its width and height: such
+    /// a box folds flat over the wrapped slice.
     Box {
         /// Width of the box in pixels.
         size: u32,
     },
     /// Binomial weights `C(order, k) / 2^order`, `order + 1` taps per axis (`order` in
     /// `1..=`[`SpatialFilter::MAX_ORDER`]): 2 is the 3×3 filter `[1 2 1]/4 ⊗ [1 2 1]/4`, FAST's
-    /// `Binomial <N>`.
+    /// `Binomial <N>`. Its σ is `√order / 2`; a mask refuses an order above the square of its
+    /// larger side (σ past half the slice, where a Gaussian folds flat too).
     Binomial {
         /// `N` of `C(N, k)`.
         order: u32,

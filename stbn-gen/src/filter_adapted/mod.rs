@@ -281,20 +281,46 @@ impl FilterAdaptedSpec {
         };
         let max =
             (Self::MAX_GAUSSIAN_SIGMA_PER_LENGTH * f64::from(slice_length)).max(default_sigma);
-        if let SpatialFilter::Gaussian { sigma } = self.spatial_filter
-            && slice_length >= 2
-            && sigma > max
-        {
+        // Spatial filters that fold flat over the wrapped slice: a Gaussian wider than `max`, a
+        // binomial wider than the same bound (its σ is √order / 2), a box a whole number of
+        // periods long on both axes. A slice of one pixel has nothing to arrange.
+        let flat = match self.spatial_filter {
+            _ if slice_length < 2 => None,
+            SpatialFilter::Gaussian { sigma } if sigma > max => Some(format!(
+                "Gaussian sigma is {}; for this mask it must be in [{:e}, {max}] (half the \
+                 slice's {slice_length} pixels, or the default {default_sigma}): a wider \
+                 Gaussian folds flat over the wrapped slice, and no arrangement of a frame \
+                 filters better than another",
+                crate::spec::compact_number(sigma),
+                filters::MIN_GAUSSIAN_SIGMA
+            )),
+            SpatialFilter::Binomial { order }
+                if u64::from(order) > Self::max_binomial_order(slice_length) =>
+            {
+                Some(format!(
+                    "Binomial order is {order}; for this mask it must be in 1..={} (σ = √order / 2 \
+                     up to half the slice's {slice_length} pixels): a wider binomial folds flat \
+                     over the wrapped slice, and no arrangement of a frame filters better than \
+                     another",
+                    Self::max_binomial_order(slice_length)
+                ))
+            }
+            SpatialFilter::Box { size } if size % self.width == 0 && size % self.height == 0 => {
+                Some(format!(
+                    "Box size is {size}; for this mask it must be in 1..={} and not a multiple \
+                     of both the slice's width {} and height {}: such a box folds flat over the \
+                     wrapped slice, and no arrangement of a frame filters better than another",
+                    SpatialFilter::MAX_SIZE,
+                    self.width,
+                    self.height
+                ))
+            }
+            _ => None,
+        };
+        if let Some(message) = flat {
             return Err(FilterAdaptedSpecError::Filter {
                 field: "spatial_filter",
-                message: format!(
-                    "Gaussian sigma is {}; for this mask it must be in [{:e}, {max}] (half the \
-                     slice's {slice_length} pixels, or the default {default_sigma}): a wider \
-                     Gaussian folds flat over the wrapped slice, and no arrangement of a frame \
-                     filters better than another",
-                    crate::spec::compact_number(sigma),
-                    filters::MIN_GAUSSIAN_SIGMA
-                ),
+                message,
             });
         }
         if !(self.kernel_tolerance > 0.0 && self.kernel_tolerance < 1.0) {
@@ -304,6 +330,14 @@ impl FilterAdaptedSpec {
             return Err(FilterAdaptedSpecError::InvalidBudget(self.swaps_per_pixel));
         }
         Ok(())
+    }
+
+    /// The largest binomial order whose σ, `√order / 2`, is within
+    /// [`MAX_GAUSSIAN_SIGMA_PER_LENGTH`](Self::MAX_GAUSSIAN_SIGMA_PER_LENGTH) of a slice of
+    /// `slice_length` pixels: `slice_length²`.
+    fn max_binomial_order(slice_length: u32) -> u64 {
+        let sigma = Self::MAX_GAUSSIAN_SIGMA_PER_LENGTH * f64::from(slice_length);
+        (4.0 * sigma * sigma) as u64
     }
 
     /// The truncated pair weights of the spec's filters on its axes.
