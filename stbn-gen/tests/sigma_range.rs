@@ -401,9 +401,36 @@ fn vector_sigmas_that_freeze_the_optimiser_are_refused_with_the_field() {
     }
 }
 
+/// Generates a `w × h × 4` filter-adapted mask (2 swaps per pixel) with the filters `s` and `t`:
+/// it must be refused naming `field` and a range, or keep swaps that lower the energy.
+fn assert_filter_adapted_refused_or_better(
+    (w, h): (u32, u32),
+    s: SpatialFilter,
+    t: TemporalFilter,
+    field: &str,
+    value: f64,
+) {
+    let spec = FilterAdaptedSpec::new(w, h, 4, 3)
+        .with_filters(s, t, FilterCombination::Product)
+        .with_swaps_per_pixel(2.0);
+    let mut trace = EnergyTrace::default();
+    match generate_filter_adapted(&spec, Observer::default().with_trace(&mut trace)) {
+        Err(e) => assert_refusal(&e.to_string(), field, value),
+        Ok(_) => {
+            let (first, last) = (trace.points[0], *trace.points.last().unwrap());
+            assert!(
+                last.swaps_accepted > 0 && last.energy < first.energy,
+                "{w}×{h}, {s}, {t}: {} swaps kept, energy {} → {}",
+                last.swaps_accepted,
+                first.energy,
+                last.energy
+            );
+        }
+    }
+}
+
 #[test]
 fn filter_adapted_sigmas_are_refused_or_lower_the_energy() {
-    let (w, h, d) = (8, 8, 4);
     for spatial in [true, false] {
         let field = if spatial {
             "spatial_filter"
@@ -422,23 +449,7 @@ fn filter_adapted_sigmas_are_refused_or_lower_the_energy() {
                     TemporalFilter::Gaussian { sigma: value },
                 )
             };
-            let spec = FilterAdaptedSpec::new(w, h, d, 3)
-                .with_filters(s, t, FilterCombination::Product)
-                .with_swaps_per_pixel(2.0);
-            let mut trace = EnergyTrace::default();
-            match generate_filter_adapted(&spec, Observer::default().with_trace(&mut trace)) {
-                Err(e) => assert_refusal(&e.to_string(), field, value),
-                Ok(_) => {
-                    let (first, last) = (trace.points[0], *trace.points.last().unwrap());
-                    assert!(
-                        last.swaps_accepted > 0 && last.energy < first.energy,
-                        "{field} Gaussian {value:e}: {} swaps kept, energy {} → {}",
-                        last.swaps_accepted,
-                        first.energy,
-                        last.energy
-                    );
-                }
-            }
+            assert_filter_adapted_refused_or_better((8, 8), s, t, field, value);
         }
     }
 }
@@ -454,25 +465,10 @@ fn filter_adapted_box_and_binomial_sizes_are_refused_or_lower_the_energy() {
         .map(|size| SpatialFilter::Box { size })
         .chain(orders.map(|order| SpatialFilter::Binomial { order }))
         .collect();
-    for (w, h) in [(8, 8), (16, 8)] {
+    for slice in [(8, 8), (16, 8)] {
         for &filter in &filters {
-            let spec = FilterAdaptedSpec::new(w, h, 4, 3)
-                .with_filters(filter, TemporalFilter::DEFAULT, FilterCombination::Product)
-                .with_swaps_per_pixel(2.0);
-            let mut trace = EnergyTrace::default();
-            match generate_filter_adapted(&spec, Observer::default().with_trace(&mut trace)) {
-                Err(e) => assert_refusal(&e.to_string(), "spatial_filter", f64::NAN),
-                Ok(_) => {
-                    let (first, last) = (trace.points[0], *trace.points.last().unwrap());
-                    assert!(
-                        last.swaps_accepted > 0 && last.energy < first.energy,
-                        "{w}×{h}, {filter}: {} swaps kept, energy {} → {}",
-                        last.swaps_accepted,
-                        first.energy,
-                        last.energy
-                    );
-                }
-            }
+            let t = TemporalFilter::DEFAULT;
+            assert_filter_adapted_refused_or_better(slice, filter, t, "spatial_filter", f64::NAN);
         }
     }
     // The bounds themselves: a box a period long on one axis only, and the widest binomial.
